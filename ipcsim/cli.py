@@ -1,0 +1,85 @@
+"""The ``ipcsim`` command line: ``main(argv) -> exit status``.
+
+Exit status: 0 success, 2 bad input (scene, mesh, arguments), 3 the simulation failed,
+130 interrupted. Library code raises typed errors (``ipcsim.errors``); only this module
+turns them into messages, so a user never sees a Python traceback for a mistake of theirs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from . import __version__
+from .errors import IpcsimError, SceneError
+
+
+def _cmd_check(args) -> int:
+    from .commands import check
+
+    return check.main(args)
+
+
+def _cmd_run(args) -> int:
+    from .commands import run
+
+    return run.main(args)
+
+
+def _cmd_convert(args) -> int:
+    from .commands import convert
+
+    return convert.main(args)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="ipcsim",
+        description="Incremental Potential Contact simulator driven by scene files "
+        "(the original IPC text format or TOML).",
+    )
+    parser.add_argument("--version", action="version", version=f"ipcsim {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    p = sub.add_parser("check", help="read a scene, build its model and print what it contains")
+    p.add_argument("scene", help="scene file (.txt or .toml)")
+    p.set_defaults(func=_cmd_check)
+
+    p = sub.add_parser("run", help="simulate a scene and write frames and logs")
+    p.add_argument("scene", help="scene file (.txt or .toml)")
+    p.add_argument("-o", "--output", metavar="DIR",
+                   help="output folder (default: output/<scene-stem>)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an existing output folder")
+    p.add_argument("--steps", type=int, metavar="N",
+                   help="simulate only the first N steps (default: ceil(duration/dt))")
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+    p.add_argument("-v", "--verbose", action="store_true",
+                   help="print every Newton iteration")
+    p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("convert", help="convert a scene between the text and TOML forms")
+    p.add_argument("source", help="scene to read (.txt or .toml)")
+    p.add_argument("target", help="scene to write (.txt or .toml)")
+    p.set_defaults(func=_cmd_convert)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if getattr(args, "func", None) is None:
+        parser.print_help()
+        return 2
+    try:
+        return int(args.func(args) or 0)
+    except IpcsimError as exc:
+        print(str(exc) if isinstance(exc, SceneError) else f"ipcsim: {exc}", file=sys.stderr)
+        return exc.exit_status
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,42 @@
+"""Typed errors. Library code raises these; only ``ipcsim.cli.main`` turns them into
+a message and an exit status (2 for bad input, 3 for a failed simulation)."""
+
+from __future__ import annotations
+
+
+class IpcsimError(Exception):
+    """Base class of every error ipcsim reports to a user."""
+
+    exit_status = 2
+
+
+class SceneError(IpcsimError):
+    """A mistake in a scene file, reported as ``path:line: message``."""
+
+    def __init__(self, path, line: int | None, message: str):
+        self.path = str(path) if path is not None else None
+        self.line = line
+        self.message = message
+        super().__init__(str(self))
+
+    def __str__(self) -> str:
+        where = self.path or "<scene>"
+        if self.line is not None:
+            where = f"{where}:{self.line}"
+        return f"{where}: {self.message}"
+
+
+class MeshError(SceneError):
+    """A mesh file that cannot be used (missing, unreadable, degenerate)."""
+
+
+class SolverError(IpcsimError):
+    """The simulation itself failed (NaN, infinite energy, no feasible step)."""
+
+    exit_status = 3
+
+
+class UnsupportedSceneError(IpcsimError):
+    """The scene needs a capability this version does not have."""
+
+    exit_status = 2

@@ -1,0 +1,196 @@
+"""SceneSpec: exactly what a scene file says, with every default filled in.
+
+Both readers (the original's text format and TOML) produce a ``SceneSpec``; the model
+builder turns it into arrays. Units are SI; angles stay in degrees here (as written in
+scene files) and become radians in the model. Parameters documented as *relative* are
+multiplied by l, the rest bounding-box diagonal of all tet shapes, when the model is built
+(unless ``use_abs_parameters``).
+
+Fields marked ``compare=False`` record where something came from (file, line, the path as
+written); two scenes that mean the same simulation compare equal.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+Vec3 = tuple[float, float, float]
+INF = math.inf
+
+ENERGIES = ("NH", "FCR")
+INTEGRATORS = ("BE", "NM")
+
+# Legacy hard-coded scenarios of the original program that ipcsim implements.
+SUPPORTED_SCRIPTS = (
+    "null",
+    "fall",
+    "fallNoShift",
+    "DCOFix",
+    "DCORotCylinders",
+    "twist",
+    "fixLowerHalf",
+    "pushRightMost1",
+)
+
+# Mesh kind by file extension; "tet" shapes are simulated, the others kinematic.
+MESH_KINDS = {".msh": "tet", ".vtk": "tet", ".vtu": "tet", ".ele": "tet", "": "tet",
+              ".obj": "surface", ".seg": "segments", ".pt": "points"}
+
+
+@dataclass(frozen=True)
+class MaterialSpec:
+    density: float  # kg/m^3
+    youngs_modulus: float  # Pa
+    poisson_ratio: float
+
+
+@dataclass(frozen=True)
+class DirichletSpec:
+    """``DBC``: vertices in a box (relative to the shape's file-space AABB) move kinematically."""
+
+    box_min: Vec3
+    box_max: Vec3
+    linear_velocity: Vec3 = (0.0, 0.0, 0.0)  # m/s, world frame
+    angular_velocity_deg: Vec3 = (0.0, 0.0, 0.0)  # deg/s, Rx*Ry*Rz
+    time_range: tuple[float, float] = (0.0, INF)  # active while t0 <= t < t1
+    line: int | None = field(default=None, compare=False)
+
+
+@dataclass(frozen=True)
+class NeumannSpec:
+    """``NBC``: extra body acceleration on the vertices in a box."""
+
+    box_min: Vec3
+    box_max: Vec3
+    acceleration: Vec3  # m/s^2
+    time_range: tuple[float, float] = (0.0, INF)
+    line: int | None = field(default=None, compare=False)
+
+
+@dataclass(frozen=True)
+class InitialVelocitySpec:
+    linear: Vec3  # m/s
+    angular_deg: Vec3  # deg/s about the shape's initial AABB centre
+
+
+@dataclass(frozen=True)
+class ShapeSpec:
+    """One shape line: a mesh file placed by p = R(rx,ry,rz) (s * p_file) + t."""
+
+    mesh_path: Path  # resolved, absolute
+    translation: Vec3 = (0.0, 0.0, 0.0)
+    rotation_deg: Vec3 = (0.0, 0.0, 0.0)
+    scale: Vec3 = (1.0, 1.0, 1.0)
+    material: MaterialSpec | None = None  # None: the scene's global material
+    linear_velocity: Vec3 | None = None  # every vertex kinematic
+    angular_velocity_deg: Vec3 | None = None
+    dbc: tuple[DirichletSpec, ...] = ()
+    nbc: tuple[NeumannSpec, ...] = ()
+    init_velocity: InitialVelocitySpec | None = None
+    mesh_sequence: Path | None = None  # resolved folder of per-step meshes
+    path: str = field(default="", compare=False)  # as written in the scene
+    line: int | None = field(default=None, compare=False)
+
+    @property
+    def kind(self) -> str:
+        """'tet' (simulated), 'surface', 'segments' or 'points' (kinematic)."""
+        return MESH_KINDS[self.mesh_path.suffix.lower()]
+
+
+@dataclass(frozen=True)
+class PlaneSpec:
+    """``ground <mu> <height>`` or ``halfSpace o n stiffness mu``; solid side opposite n."""
+
+    kind: str  # "ground" | "halfSpace"
+    origin: Vec3
+    normal: Vec3  # unit length
+    friction: float = 0.0
+    stiffness: float = 0.0  # read and ignored, as in the original
+    line: int | None = field(default=None, compare=False)
+
+
+@dataclass(frozen=True)
+class MeshObstacleSpec:
+    """``meshCO``: a static triangle-mesh obstacle (legacy)."""
+
+    mesh_path: Path
+    position: Vec3
+    size: float  # largest AABB extent after placement, absolute
+    stiffness: float = 0.0
+    friction: float = 0.0
+    rotation_deg: Vec3 = (0.0, 0.0, 0.0)
+    path: str = field(default="", compare=False)
+    line: int | None = field(default=None, compare=False)
+
+
+@dataclass(frozen=True)
+class SceneSpec:
+    shapes: tuple[ShapeSpec, ...] = ()
+    planes: tuple[PlaneSpec, ...] = ()
+    mesh_obstacles: tuple[MeshObstacleSpec, ...] = ()
+
+    # time
+    duration: float = 5.0
+    dt: float = 0.025
+
+    # material (global)
+    density: float = 1000.0
+    youngs_modulus: float = 1e5
+    poisson_ratio: float = 0.4
+    energy: str = "NH"
+
+    # integrator
+    integrator: str = "BE"
+    newmark_beta: float = 0.25
+    newmark_gamma: float = 0.5
+    damping_stiff: float = 0.0
+    damping_ratio: float = 0.0
+    warm_start: int = 0
+    gravity: bool = True
+
+    # contact and accuracy; dhat, epsv, dtol and newton_tol are relative to l
+    self_collision: bool = True
+    self_friction: float = 0.0
+    kappa: float | None = None  # None: adaptive, as the original
+    dhat: float = 1e-3
+    dhat_start: float | None = None  # tuning homotopy start (None: = dhat)
+    dhat_abs: float | None = None  # beyond the original: absolute d-hat in metres
+    epsv: float = 1e-3
+    epsv_abs: float | None = None  # beyond the original: absolute eps_v in m/s
+    dtol: float = 1e-9
+    friction_iterations: int = 1
+    newton_tol: tuple[float, ...] = (1e-2,)
+    kappa_min_multiplier: float = 1e11
+    use_abs_parameters: bool = False
+    constraint_solver: str = "interiorPoint"
+    linear_solver: str | None = None  # None: the fastest installed
+
+    # boundary-condition gates and legacy scene switches
+    dbc_time_range: tuple[float, float] = (0.0, INF)
+    nbc_time_range: tuple[float, float] = (0.0, INF)
+    script: str = "null"
+    script_params: tuple[float, ...] = ()
+    handle_ratio: float = 0.01
+    size: float = -1.0  # <= 0: off
+    rotate_model: tuple[float, float, float, float] | None = None  # axis, degrees
+    restart: Path | None = None
+
+    # output
+    playback_speed: float = 1.0
+    append_str: str = ""
+
+    # provenance and diagnostics (not part of the scene's meaning)
+    source: Path | None = field(default=None, compare=False)
+    warnings: tuple[str, ...] = field(default=(), compare=False)
+    ignored: tuple[str, ...] = field(default=(), compare=False)  # viewer-only keys seen
+
+    @property
+    def n_steps(self) -> int:
+        """ceil(duration / dt), guarded against round-off (5 / 0.025 is 200, not 201)."""
+        return max(1, math.ceil(self.duration / self.dt - 1e-9))
+
+    def newton_tol_at(self, step: int) -> float:
+        """Per-step tolerance list: step i uses entry i, later steps the last entry."""
+        return self.newton_tol[min(step, len(self.newton_tol) - 1)]
