@@ -1,0 +1,39 @@
+"""The IPC log barrier, written in squared distance as the original program does.
+
+    b(s; ŝ) = -(s - ŝ)² ln(s / ŝ)   for 0 < s < ŝ,   0 for s ≥ ŝ
+
+with s = d² and ŝ = d̂². It is C² at s = ŝ and grows without bound as s -> 0.
+Derivatives are with respect to s.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def barrier(s, s_hat):
+    if s >= s_hat:
+        return 0.0
+    if s <= 0.0:
+        return np.inf
+    return -(s - s_hat) ** 2 * np.log(s / s_hat)
+
+
+@njit(cache=True)
+def barrier_first_derivative(s, s_hat):
+    # b' = -2 (s - ŝ) ln(s/ŝ) - (s - ŝ)² / s
+    if s >= s_hat:
+        return 0.0
+    r = s - s_hat
+    return -2.0 * r * np.log(s / s_hat) - r * r / s
+
+
+@njit(cache=True)
+def barrier_second_derivative(s, s_hat):
+    # b'' = -2 ln(s/ŝ) - 4 (s - ŝ)/s + (s - ŝ)²/s²
+    if s >= s_hat:
+        return 0.0
+    r = s - s_hat
+    return -2.0 * np.log(s / s_hat) - 4.0 * r / s + (r / s) ** 2
