@@ -1,0 +1,75 @@
+"""Time integrators: what x̃ is, how the potential terms are weighted, and how velocities
+follow from the minimiser x of the step.
+
+Backward Euler (BE):
+    x̃ = xₙ + h vₙ,   E = ½‖x − x̃‖²_M + h² (Ψ − Σ m a·x) + contact,   vₙ₊₁ = (x − xₙ)/h
+Newmark (NM, β, γ):
+    x̃ = xₙ + h vₙ + h² (½ − β) aₙ,   E = ½‖x − x̃‖²_M + β h² (Ψ − Σ m a·x) + contact,
+    aₙ₊₁ = (x − x̃)/(β h²),   vₙ₊₁ = vₙ + h ((1 − γ) aₙ + γ aₙ₊₁)
+Kinematic vertices take their prescribed positions; their velocity is (x − xₙ)/h.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class BackwardEuler:
+    name = "BE"
+
+    def __init__(self, h: float):
+        self.h = h
+
+    @property
+    def force_weight(self) -> float:
+        """Weight of Ψ and body forces in the incremental potential."""
+        return self.h * self.h
+
+    def predict(self, x, v, a):
+        return x + self.h * v
+
+    def update(self, x_new, x, v, a):
+        v_new = (x_new - x) / self.h
+        return v_new, (v_new - v) / self.h
+
+
+class Newmark:
+    name = "NM"
+
+    def __init__(self, h: float, beta: float = 0.25, gamma: float = 0.5):
+        if not 0.0 < beta <= 0.5 or not 0.0 < gamma <= 1.0:
+            raise ValueError(f"Newmark needs 0 < β ≤ 0.5 and 0 < γ ≤ 1 (got {beta}, {gamma})")
+        self.h, self.beta, self.gamma = h, beta, gamma
+
+    @property
+    def force_weight(self) -> float:
+        return self.beta * self.h * self.h
+
+    def predict(self, x, v, a):
+        return x + self.h * v + self.h * self.h * (0.5 - self.beta) * a
+
+    def update(self, x_new, x, v, a):
+        x_tilde = self.predict(x, v, a)
+        a_new = (x_new - x_tilde) / self.force_weight
+        v_new = v + self.h * ((1.0 - self.gamma) * a + self.gamma * a_new)
+        return v_new, a_new
+
+
+def make_integrator(name: str, h: float, beta: float = 0.25, gamma: float = 0.5):
+    if name == "BE":
+        return BackwardEuler(h)
+    if name == "NM":
+        return Newmark(h, beta, gamma)
+    raise ValueError(f"unknown integrator {name!r}")
+
+
+def fix_kinematic_velocities(v_new, a_new, kinematic, x_new, x, v, h):
+    """Kinematic vertices move by prescription: v = Δx/h, a = Δv/h."""
+    if kinematic.any():
+        v_new[kinematic] = (x_new[kinematic] - x[kinematic]) / h
+        a_new[kinematic] = (v_new[kinematic] - v[kinematic]) / h
+    return v_new, a_new
+
+
+def kinetic_energy(mass, v) -> float:
+    return 0.5 * float(np.einsum("i,ij,ij->", mass, v, v))
