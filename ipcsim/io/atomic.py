@@ -1,0 +1,136 @@
+"""Write files so that a reader never sees a half-written one.
+
+Every writer here writes to a temporary name in the target's own folder
+(``.<name>.tmp-<pid>``), flushes and fsyncs it, and only then renames it over the
+target with ``os.replace``. A rename within one folder is atomic, so after a crash the
+target is either the complete old file, the complete new file, or absent; a leftover
+temporary file starts with a dot and ends in ``.tmp-<pid>``, so it never looks like output.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import IO
+
+__all__ = [
+    "TEMP_MARKER",
+    "atomic_open",
+    "atomic_path",
+    "atomic_write_bytes",
+    "atomic_write_text",
+    "is_temporary_name",
+    "temporary_path",
+]
+
+TEMP_MARKER = ".tmp-"
+
+
+def temporary_path(path: str | os.PathLike) -> Path:
+    """The temporary name used while ``path`` is being written (same folder, hidden)."""
+    path = Path(path)
+    return path.with_name(f".{path.name}{TEMP_MARKER}{os.getpid()}")
+
+
+def is_temporary_name(name: str) -> bool:
+    """True for names made by :func:`temporary_path` (by any process)."""
+    if not name.startswith("."):
+        return False
+    _, sep, pid = name.rpartition(TEMP_MARKER)
+    return bool(sep) and pid.isdigit()
+
+
+def _fsync_file(path: Path) -> None:
+    fd = os.open(path, os.O_RDWR)  # Windows refuses fsync on a read-only handle
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _fsync_folder(folder: Path) -> None:
+    # Makes the rename itself durable; folders cannot be opened this way on Windows.
+    if os.name != "posix":
+        return
+    fd = os.open(folder, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass  # some file systems refuse fsync on a folder; the data itself is synced
+    finally:
+        os.close(fd)
+
+
+def _discard(tmp: Path) -> None:
+    try:
+        tmp.unlink()
+    except FileNotFoundError:
+        pass
+
+
+@contextmanager
+def atomic_path(path: str | os.PathLike, *, fsync: bool = True) -> Iterator[Path]:
+    """Yield a temporary path for a writer that wants a file name (e.g. a library's
+    ``write(filename, ...)``); on success it becomes ``path``.
+
+    If the body raises, the temporary file is removed, ``path`` keeps its old content
+    (or stays absent) and the exception propagates.
+    """
+    path = Path(path)
+    tmp = temporary_path(path)
+    try:
+        yield tmp
+        if not tmp.exists():
+            raise FileNotFoundError(f"the writer did not create {tmp}")
+        if fsync:
+            _fsync_file(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        _discard(tmp)
+        raise
+    if fsync:
+        _fsync_folder(path.parent)
+
+
+@contextmanager
+def atomic_open(
+    path: str | os.PathLike,
+    mode: str = "w",
+    *,
+    encoding: str | None = None,
+    newline: str | None = None,
+    fsync: bool = True,
+) -> Iterator[IO]:
+    """Like ``open(path, mode)`` for writing, but ``path`` appears only when the block
+    finishes without an exception. ``mode`` is ``"w"`` or ``"wb"``."""
+    if mode not in ("w", "wb"):
+        raise ValueError(f"atomic_open supports modes 'w' and 'wb', not {mode!r}")
+    if mode == "w" and encoding is None:
+        encoding = "utf-8"
+    with atomic_path(path, fsync=False) as tmp:
+        with open(tmp, mode, encoding=encoding, newline=newline) as f:
+            yield f
+            f.flush()
+            if fsync:
+                os.fsync(f.fileno())
+    if fsync:
+        _fsync_folder(Path(path).parent)
+
+
+def atomic_write_bytes(path: str | os.PathLike, data: bytes, *, fsync: bool = True) -> Path:
+    """Replace ``path`` with ``data`` atomically; returns ``path``."""
+    with atomic_open(path, "wb", fsync=fsync) as f:
+        f.write(data)
+    return Path(path)
+
+
+def atomic_write_text(
+    path: str | os.PathLike, text: str, *, encoding: str = "utf-8", fsync: bool = True
+) -> Path:
+    """Replace ``path`` with ``text`` atomically; returns ``path``. Newlines are written
+    as ``\\n`` on every platform so output files compare equal across machines."""
+    with atomic_open(path, "w", encoding=encoding, newline="\n", fsync=fsync) as f:
+        f.write(text)
+    return Path(path)

@@ -1,0 +1,195 @@
+"""Per-step and per-Newton-iteration CSV logs (``steps.csv``, ``newton.csv``).
+
+Each log has a fixed column set (documented in docs/output-format.md), is opened once
+per run, writes its header once and appends one complete row per call, flushed to the
+operating system (and optionally fsync'd) before the call returns, so the file on disk
+always ends with a whole row.
+
+Cell format: integers as decimal, booleans as ``1``/``0``, floats with ``repr`` (the
+shortest text that reads back as the same double, e.g. ``0.1``, ``1e-08``, ``nan``,
+``inf``), a missing value as an empty cell. A float cell always contains ``.``, ``e``,
+``nan`` or ``inf``, so integer and float columns stay distinguishable on reading.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+__all__ = [
+    "NEWTON_COLUMNS",
+    "STEP_COLUMNS",
+    "CsvLog",
+    "NewtonLog",
+    "StepLog",
+    "format_cell",
+    "read_csv",
+]
+
+STEP_COLUMNS: tuple[str, ...] = (
+    "step",
+    "time",
+    "dt",
+    "newton_iterations",
+    "converged",
+    "hit_iteration_cap",
+    "line_search_min_alpha",
+    "kappa",
+    "dhat",
+    "min_distance",
+    "contacts_plane",
+    "contacts_point_triangle",
+    "contacts_edge_edge",
+    "contacts_total",
+    "energy",
+    "kinetic_energy",
+    "elastic_energy",
+    "wall_s",
+    "wall_energy_s",
+    "wall_assembly_s",
+    "wall_solve_s",
+    "wall_ccd_line_search_s",
+    "wall_contact_set_s",
+    "friction_contacts",
+    "friction_iterations",
+    "friction_energy",
+)
+
+NEWTON_COLUMNS: tuple[str, ...] = (
+    "step",
+    "iteration",
+    "alpha",
+    "step_inf_norm",
+    "tolerance",
+    "residual_ratio",
+    "energy",
+    "gradient_norm",
+    "contacts_plane",
+    "contacts_point_triangle",
+    "contacts_edge_edge",
+    "contacts_total",
+    "kappa",
+    "min_distance",
+)
+
+
+def format_cell(value) -> str:
+    """Text of one CSV cell; raises TypeError for anything that is not a number."""
+    if value is None:
+        return ""
+    if isinstance(value, (bool, np.bool_)):
+        return "1" if value else "0"
+    if isinstance(value, numbers.Integral):
+        return str(int(value))
+    if isinstance(value, numbers.Real):
+        return repr(float(value))  # float() first: numpy scalars repr as np.float64(...)
+    raise TypeError(f"a CSV log cell must be a number, bool or None, got {type(value).__name__}")
+
+
+class CsvLog:
+    """An append-only CSV file with a fixed column set.
+
+    ``append(row)`` takes a mapping from column name to value; columns it leaves out
+    are written empty, and a key that is not a column raises ``ValueError`` (a
+    misspelt column would otherwise vanish silently). Use as a context manager or
+    call ``close()``.
+    """
+
+    def __init__(self, path: str | os.PathLike, columns: Sequence[str], *, fsync: bool = False):
+        if len(set(columns)) != len(columns):
+            raise ValueError("CSV columns must be unique")
+        self.path = Path(path)
+        self.columns = tuple(columns)
+        self._known = frozenset(self.columns)
+        self.fsync = fsync
+        self.rows_written = 0
+        # newline="": rows end in "\n" on every platform
+        self._file = open(self.path, "w", encoding="utf-8", newline="")
+        self._write_line(",".join(self.columns))
+
+    def _write_line(self, line: str) -> None:
+        # one write per line, then flush: a reader never sees a partial row mid-run
+        self._file.write(line + "\n")
+        self._file.flush()
+        if self.fsync:
+            os.fsync(self._file.fileno())
+
+    def append(self, row: Mapping[str, object]) -> None:
+        """Write one row; see the class docstring for the rules."""
+        if self._file.closed:
+            raise ValueError(f"{self.path} is closed")
+        unknown = [k for k in row if k not in self._known]
+        if unknown:
+            raise ValueError(
+                f"unknown column(s) {', '.join(map(repr, unknown))} for {self.path.name}; "
+                f"columns are: {', '.join(self.columns)}"
+            )
+        self._write_line(",".join(format_cell(row.get(c)) for c in self.columns))
+        self.rows_written += 1
+
+    def close(self) -> None:
+        if not self._file.closed:
+            self._file.close()
+
+    @property
+    def closed(self) -> bool:
+        return self._file.closed
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+class StepLog(CsvLog):
+    """``steps.csv``: one row per time step, columns :data:`STEP_COLUMNS`."""
+
+    FILE_NAME = "steps.csv"
+
+    def __init__(self, path: str | os.PathLike, *, fsync: bool = False):
+        super().__init__(path, STEP_COLUMNS, fsync=fsync)
+
+
+class NewtonLog(CsvLog):
+    """``newton.csv``: one row per Newton iteration, columns :data:`NEWTON_COLUMNS`."""
+
+    FILE_NAME = "newton.csv"
+
+    def __init__(self, path: str | os.PathLike, *, fsync: bool = False):
+        super().__init__(path, NEWTON_COLUMNS, fsync=fsync)
+
+
+def _is_int_text(cell: str) -> bool:
+    s = cell[1:] if cell[:1] in "+-" else cell
+    return s.isdigit()
+
+
+def read_csv(path: str | os.PathLike) -> dict[str, np.ndarray]:
+    """Read a log back: column name -> array, in file order.
+
+    A column whose every cell is an integer becomes ``int64``; any other column becomes
+    ``float64`` with empty cells as NaN. Floats read back bit-for-bit as written.
+    """
+    with open(path, encoding="utf-8", newline="") as f:
+        lines = f.read().splitlines()
+    if not lines:
+        raise ValueError(f"{path} is empty (no header)")
+    columns = lines[0].split(",")
+    rows = [line.split(",") for line in lines[1:] if line]
+    for i, r in enumerate(rows, start=2):
+        if len(r) != len(columns):
+            raise ValueError(f"{path}:{i}: {len(r)} cells, header has {len(columns)}")
+    out: dict[str, np.ndarray] = {}
+    for j, name in enumerate(columns):
+        cells = [r[j] for r in rows]
+        if cells and all(_is_int_text(c) for c in cells):
+            out[name] = np.array([int(c) for c in cells], dtype=np.int64)
+        else:
+            out[name] = np.array([float(c) if c else math.nan for c in cells], dtype=np.float64)
+    return out

@@ -1,0 +1,109 @@
+"""``run.json``: what ran, where, with which software, and how long it took.
+
+:func:`write_run_info` fills in the environment (versions, platform, command line)
+itself and merges the caller's run facts over it; every key of :data:`RUN_KEYS` is
+always present (``null`` when the caller did not give it), so readers need no guessing.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import math
+import os
+import platform
+import sys
+from importlib import metadata
+from pathlib import Path
+
+import numpy as np
+
+from .atomic import atomic_write_text
+
+__all__ = ["RUN_INFO_NAME", "RUN_KEYS", "environment_info", "now_iso", "write_run_info"]
+
+RUN_INFO_NAME = "run.json"
+
+# Facts only the caller knows; written as null until it supplies them.
+RUN_KEYS: tuple[str, ...] = (
+    "scene",
+    "output",
+    "status",
+    "started",
+    "finished",
+    "wall_s",
+    "steps_planned",
+    "steps_done",
+    "newton_iterations",
+    "modelled_terms",
+    "linear_solver",
+)
+
+
+def now_iso() -> str:
+    """The current local time as ISO 8601 with its UTC offset, to the second."""
+    return _dt.datetime.now().astimezone().isoformat(timespec="seconds")
+
+
+def _version(dist: str) -> str | None:
+    # metadata instead of import: numba takes a while to import just for a version
+    try:
+        return metadata.version(dist)
+    except metadata.PackageNotFoundError:
+        return None
+
+
+def environment_info() -> dict:
+    """Versions of ipcsim and its numerical stack, the platform and the command line."""
+    from .. import __version__
+
+    return {
+        "ipcsim_version": __version__,
+        "python_version": platform.python_version(),
+        "numpy_version": np.__version__,
+        "scipy_version": _version("scipy"),
+        "numba_version": _version("numba"),
+        "meshio_version": _version("meshio"),
+        "platform": platform.platform(),
+        "machine": platform.machine(),
+        "processor_count": os.cpu_count(),
+        "command": list(sys.argv),
+    }
+
+
+def _plain(value):
+    """The run's facts as plain JSON values; non-finite floats become null because
+    strict JSON has no NaN or infinity."""
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, (set, frozenset)):
+        return [_plain(v) for v in sorted(value, key=str)]  # a stable order for diffs
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _plain(value.tolist())
+    if isinstance(value, np.generic):
+        return _plain(value.item())
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if value is None or isinstance(value, (str, int, bool)):
+        return value
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    if isinstance(value, (_dt.datetime, _dt.date)):
+        return value.isoformat()
+    raise TypeError(f"run.json cannot hold a {type(value).__name__}")
+
+
+def write_run_info(folder: str | os.PathLike, info: dict) -> Path:
+    """Write ``<folder>/run.json`` atomically and return its path.
+
+    Contents: :func:`environment_info`, then every key of :data:`RUN_KEYS` (``null`` by
+    default), then ``info`` on top (its keys win, extra keys are kept). Call it again to
+    update the file, e.g. once at the start with ``status="running"`` and once at the end.
+    """
+    data = environment_info()
+    data.update(dict.fromkeys(RUN_KEYS))
+    data.update(info)
+    text = json.dumps(_plain(data), indent=2, allow_nan=False) + "\n"
+    return atomic_write_text(Path(folder) / RUN_INFO_NAME, text)

@@ -1,0 +1,86 @@
+from __future__ import annotations
+
+import os
+
+import pytest
+
+from ipcsim.io.atomic import (
+    atomic_open,
+    atomic_path,
+    atomic_write_bytes,
+    atomic_write_text,
+    is_temporary_name,
+    temporary_path,
+)
+
+
+class Boom(Exception):
+    pass
+
+
+def test_write_bytes_and_text_replace_content(tmp_path):
+    target = tmp_path / "a.bin"
+    atomic_write_bytes(target, b"old")
+    atomic_write_bytes(target, b"\x00new")
+    assert target.read_bytes() == b"\x00new"
+    text = tmp_path / "b.txt"
+    atomic_write_text(text, "line 1\nline 2\n")
+    assert text.read_bytes() == b"line 1\nline 2\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.bin", "b.txt"]
+
+
+def test_temporary_name_is_hidden_in_same_folder(tmp_path):
+    tmp = temporary_path(tmp_path / "frame_000001.vtu")
+    assert tmp.parent == tmp_path
+    assert tmp.name == f".frame_000001.vtu.tmp-{os.getpid()}"
+    assert is_temporary_name(tmp.name)
+    assert not is_temporary_name("frame_000001.vtu")
+    assert not is_temporary_name(".hidden")
+    assert not is_temporary_name(".x.tmp-abc")
+
+
+@pytest.mark.parametrize("mode", ["w", "wb"])
+def test_failing_writer_keeps_old_file_and_leaves_no_temporary(tmp_path, mode):
+    target = tmp_path / "steps.csv"
+    target.write_text("complete old content\n")
+    with pytest.raises(Boom):
+        with atomic_open(target, mode) as f:
+            f.write("half of the new" if mode == "w" else b"half of the new")
+            raise Boom
+    assert target.read_text() == "complete old content\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["steps.csv"]
+
+
+def test_failing_writer_creates_nothing_when_target_was_absent(tmp_path):
+    target = tmp_path / "run.json"
+    with pytest.raises(Boom):
+        with atomic_path(target) as tmp:
+            tmp.write_text("{")
+            raise Boom
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_atomic_path_for_a_writer_that_takes_a_file_name(tmp_path):
+    target = tmp_path / "out.txt"
+    target.write_text("old")
+    with atomic_path(target) as tmp:
+        assert tmp != target
+        tmp.write_text("new")
+        assert target.read_text() == "old"  # not visible until the block ends
+    assert target.read_text() == "new"
+    assert [p.name for p in tmp_path.iterdir()] == ["out.txt"]
+
+
+def test_atomic_path_refuses_when_writer_wrote_nothing(tmp_path):
+    target = tmp_path / "out.txt"
+    target.write_text("old")
+    with pytest.raises(FileNotFoundError):
+        with atomic_path(target):
+            pass
+    assert target.read_text() == "old"
+
+
+def test_atomic_open_rejects_append_mode(tmp_path):
+    with pytest.raises(ValueError):
+        with atomic_open(tmp_path / "x", "a"):
+            pass
