@@ -1,0 +1,584 @@
+"""``build_model(scene) -> Model``: meshes in, frozen arrays out.
+
+Follows docs/ipc-scene-format.md §5.1 (assembly order):
+
+1. each shape: load in file coordinates; pick DBC/NBC vertices by relative boxes of the
+   file-space AABB among boundary vertices (§5.4); place p = R (s * p) + t with
+   R = Rx Ry Rz (degrees); tet boundary triangles per shape;
+2. ``rotateModel`` (initial positions only, pivot (max - min) / 2: the original's quirk),
+   then ``size`` (rest and initial: scale to the largest extent, AABB min to the origin);
+3. lumped masses, Lame parameters and rest shape per tet (per-shape materials);
+4. the legacy script (``null``: codim shapes fixed, velocity shapes, DBCs, mesh sequences);
+5. initial velocities (``initVel``, script ``null`` only), ``restart`` files;
+6. meshCO obstacles are appended as fixed "obstacle" shapes (never rescaled, §8.15).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import MeshError, SceneError
+from ..scene.spec import SUPPORTED_SCRIPTS, SceneSpec, ShapeSpec
+from . import mesh_io
+from .kinematics import rotation_axis_angle, rotation_xyz
+from .model import DirichletSet, MeshSequence, Model, NeumannSet
+from .surface import boundary_triangles, unique_edges
+
+GRAVITY = (0.0, -9.80665, 0.0)  # m/s^2, y up
+SEQUENCE_EXT = {"tet": "msh", "surface": "obj", "segments": "seg", "points": "pt"}
+ENERGY_NAMES = {"NH": "neo-Hookean", "FCR": "fixed corotated"}
+
+
+@dataclass
+class _Part:
+    """One shape after loading and placement (local vertex indices)."""
+
+    index: int
+    name: str
+    kind: str  # tet | surface | segments | points | obstacle
+    points: np.ndarray  # placed (n, 3)
+    line: int | None = None
+    tets: np.ndarray = field(default_factory=lambda: np.zeros((0, 4), np.int64))
+    triangles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.int64))
+    edges: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int64))
+    material: tuple[float, float, float] = (0.0, 0.0, 0.0)  # density, E, nu
+    dbc: list = field(default_factory=list)  # (local vertices, DirichletSpec)
+    nbc: list = field(default_factory=list)  # (local vertices, NeumannSpec)
+
+
+# ----------------------------------------------------------------------------- helpers
+
+
+def place(points: np.ndarray, translation, rotation_deg, scale) -> np.ndarray:
+    """p_world = R (s * p) + t, R = Rx(rx) Ry(ry) Rz(rz) in degrees (column vectors)."""
+    rot = rotation_xyz(np.radians(np.asarray(rotation_deg, dtype=np.float64)))
+    scaled = np.asarray(points, dtype=np.float64) * np.asarray(scale, dtype=np.float64)
+    return scaled @ rot.T + np.asarray(translation, dtype=np.float64)  # rows: (R p)^T = p^T R^T
+
+
+def select_in_box(file_points: np.ndarray, candidates: np.ndarray, box_min, box_max) -> np.ndarray:
+    """Local indices of candidate vertices inside a box given relative to the file-space AABB:
+    [lo + (hi - lo) r0, lo + (hi - lo) r1], inclusive on both ends (written as the original
+    does, (hi - lo) * r + lo, so boundary cases round the same way)."""
+    lo, hi = file_points.min(axis=0), file_points.max(axis=0)
+    bmin = (hi - lo) * np.asarray(box_min, dtype=np.float64) + lo
+    bmax = (hi - lo) * np.asarray(box_max, dtype=np.float64) + lo
+    inside = np.all(file_points >= bmin, axis=1) & np.all(file_points <= bmax, axis=1)
+    return np.flatnonzero(inside & candidates).astype(np.int64)
+
+
+def lame_parameters(youngs: np.ndarray, poisson: np.ndarray) -> np.ndarray:
+    """(mu, lambda) = (E / (2 (1 + nu)), E nu / ((1 + nu)(1 - 2 nu)))."""
+    e, nu = np.asarray(youngs, dtype=np.float64), np.asarray(poisson, dtype=np.float64)
+    return np.stack([e / (2.0 * (1.0 + nu)), e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))], axis=-1)
+
+
+def voronoi_triangle_masses(points: np.ndarray, triangles: np.ndarray, density: float) -> np.ndarray:
+    """Per-corner masses (k, 3) of a kinematic triangle surface, as the original (§5.2):
+    rho * (libigl Voronoi corner area) * (mean edge length / 3), i.e. a shell whose
+    thickness is a third of the mean edge length."""
+    x0, x1, x2 = (points[triangles[:, i]] for i in range(3))
+    el = np.stack([np.linalg.norm(x1 - x2, axis=1), np.linalg.norm(x2 - x0, axis=1),
+                   np.linalg.norm(x0 - x1, axis=1)], axis=1)  # l_i opposite corner i
+    dbl_a = np.linalg.norm(np.cross(x1 - x0, x2 - x0), axis=1)  # twice the area
+    with np.errstate(divide="ignore", invalid="ignore"):
+        l0, l1, l2 = el[:, 0], el[:, 1], el[:, 2]
+        cos = np.stack([(l2**2 + l1**2 - l0**2) / (2 * l1 * l2),
+                        (l0**2 + l2**2 - l1**2) / (2 * l2 * l0),
+                        (l1**2 + l0**2 - l2**2) / (2 * l0 * l1)], axis=1)
+        bary = cos * el
+        bary = bary / bary.sum(axis=1, keepdims=True)
+        partial = bary * (0.5 * dbl_a)[:, None]
+    quads = 0.5 * np.stack([partial[:, 1] + partial[:, 2], partial[:, 2] + partial[:, 0],
+                            partial[:, 0] + partial[:, 1]], axis=1)
+    for i in range(3):  # obtuse at corner i: that corner gets A/2, the others A/4
+        w = np.full(3, 0.125)
+        w[i] = 0.25
+        quads = np.where((cos[:, i] < 0)[:, None], dbl_a[:, None] * w, quads)
+    quads = np.where(np.isfinite(quads), quads, (dbl_a / 6.0)[:, None])  # degenerate: A/3 each
+    return density * quads * (el.mean(axis=1) / 3.0)[:, None]
+
+
+def _scene_error(scene: SceneSpec, line, message: str) -> SceneError:
+    return SceneError(scene.source, line, message)
+
+
+# ----------------------------------------------------------------------------- loading
+
+
+def _load_shape(scene: SceneSpec, i: int, spec: ShapeSpec, warnings: list[str]) -> _Part:
+    """Read one shape, select its DBC/NBC vertices in file coordinates, then place it."""
+    try:
+        kind = spec.kind
+    except KeyError:
+        raise _scene_error(scene, spec.line, f"unsupported mesh file type "
+                                             f"'{spec.mesh_path.suffix}'") from None
+    data = mesh_io.read_shape(spec.mesh_path, kind, spec.line)
+    file_points = data["points"]
+    tets = data.get("tets", np.zeros((0, 4), np.int64))
+    triangles = data.get("triangles", np.zeros((0, 3), np.int64))
+    edges = data.get("edges", np.zeros((0, 2), np.int64))
+    label = f"shape {i + 1} ({spec.path or spec.mesh_path.name})"
+
+    scale = np.asarray(spec.scale, dtype=np.float64)
+    if not np.all(np.isfinite(scale)) or np.any(scale == 0.0):
+        raise _scene_error(scene, spec.line, f"{label}: scale {tuple(spec.scale)} must be "
+                                             "finite and non-zero")
+    if np.prod(scale) < 0.0:  # a mirror: keep tets positive and surfaces outward
+        tets = tets[:, [0, 2, 1, 3]]
+        triangles = triangles[:, [0, 2, 1]]
+        warnings.append(f"{label}: negative scale mirrors the mesh; element orientation "
+                        "was flipped to stay positive")
+
+    if kind == "tet":
+        triangles = boundary_triangles(tets)
+    # DBC/NBC candidates: boundary vertices for tets and .obj, all vertices for .seg/.pt (§5.4)
+    if kind in ("tet", "surface"):
+        candidates = np.zeros(len(file_points), dtype=bool)
+        candidates[triangles.ravel()] = True
+    else:
+        candidates = np.ones(len(file_points), dtype=bool)
+
+    part = _Part(index=i, name=spec.mesh_path.stem, kind=kind, line=spec.line,
+                 points=place(file_points, spec.translation, spec.rotation_deg, scale),
+                 tets=tets, triangles=triangles, edges=edges)
+    for j, d in enumerate(spec.dbc):
+        part.dbc.append((select_in_box(file_points, candidates, d.box_min, d.box_max), d, j))
+    for j, nb in enumerate(spec.nbc):
+        part.nbc.append((select_in_box(file_points, candidates, nb.box_min, nb.box_max), nb, j))
+
+    part.material = (scene.density, scene.youngs_modulus, scene.poisson_ratio)
+    m = spec.material
+    if m is not None:
+        values = (m.density, m.youngs_modulus, m.poisson_ratio)
+        if kind != "tet":
+            warnings.append(f"{label}: material ignored (only tet shapes are elastic)")
+        elif not all(math.isfinite(v) for v in values):
+            warnings.append(f"{label}: material with non-finite values ignored")
+        elif m.density <= 0.0 or m.youngs_modulus <= 0.0:
+            warnings.append(f"{label}: material needs density > 0 and E > 0; "
+                            "using the global material")
+        else:
+            part.material = values
+    if kind == "tet" and not (-1.0 < part.material[2] < 0.5):
+        raise _scene_error(scene, spec.line, f"{label}: Poisson ratio {part.material[2]} "
+                                             "must be in (-1, 0.5)")
+    return part
+
+
+def _load_obstacle(scene: SceneSpec, k: int, ob) -> _Part:
+    """meshCO: centre on the vertex average, rotate Rx Ry Rz (deg), scale uniformly so the
+    largest AABB extent of the *original* mesh equals `size`, move the average to o (§4.2)."""
+    points, triangles = mesh_io.read_obj(ob.mesh_path, ob.line)
+    mesh_io.check_triangles(points, triangles, ob.mesh_path, ob.line)
+    extent = float((points.max(axis=0) - points.min(axis=0)).max())
+    if not extent > 0.0 or not ob.size > 0.0:
+        raise _scene_error(scene, ob.line, f"meshCO {ob.path or ob.mesh_path.name}: "
+                                           "zero extent or size")
+    avg = points.mean(axis=0)
+    rot = rotation_xyz(np.radians(np.asarray(ob.rotation_deg, dtype=np.float64)))
+    placed = ((points - avg) @ rot.T) * (ob.size / extent) + np.asarray(ob.position)
+    return _Part(index=k, name=f"meshCO {ob.mesh_path.stem}", kind="obstacle", points=placed,
+                 triangles=triangles, line=ob.line)
+
+
+# ----------------------------------------------------------------------------- legacy scripts
+
+
+def _legacy_script_sets(scene: SceneSpec, parts, offsets, rest, initial, warnings):
+    """DBC sets of the hard-coded legacy scenarios (§4.8); returns (sets, new initial)."""
+    name = scene.script
+    sets: list[DirichletSet] = []
+    lo, hi = initial.min(axis=0), initial.max(axis=0)
+    rng = hi - lo
+    src = f"script {name}"
+    if name == "fall":
+        # shift all initial positions up by half the scene AABB diagonal
+        initial = initial.copy()
+        initial[:, 1] += 0.5 * float(np.linalg.norm(rng))
+    elif name == "fallNoShift":
+        pass
+    elif name == "DCOFix":
+        for p in parts:
+            if p.kind != "tet":
+                sets.append(DirichletSet(np.arange(offsets[p.index], offsets[p.index + 1]),
+                                         source=f"{src}: shape {p.index + 1} fixed"))
+    elif name == "DCORotCylinders":
+        if len(parts) < 4:
+            raise _scene_error(scene, None, "script DCORotCylinders needs at least 4 shapes")
+        omegas = [(math.pi / 2, 0, 0), (-math.pi / 2, 0, 0), (0, 0, -math.pi / 2),
+                  (0, 0, math.pi / 2)]  # rad/s, about each shape's initial AABB centre
+        for k in range(4):
+            x = initial[offsets[k]:offsets[k + 1]]
+            centre = tuple(0.5 * (x.min(axis=0) + x.max(axis=0)))
+            sets.append(DirichletSet(np.arange(offsets[k], offsets[k + 1]),
+                                     angular_velocity=omegas[k], centre=centre,
+                                     source=f"{src}: shape {k + 1} rotating"))
+    elif name == "twist":
+        # slabs of relative thickness handleRatio at min / max x of the REST positions,
+        # rotating -0.4 pi and +0.4 pi rad/s about x through the rest-AABB centre
+        rlo, rhi = rest.min(axis=0), rest.max(axis=0)
+        r = scene.handle_ratio * (rhi[0] - rlo[0])
+        left = rest[:, 0] < rlo[0] + r
+        right = ~left & (rest[:, 0] > rhi[0] - r)
+        centre = tuple(0.5 * (rlo + rhi))
+        sets.append(DirichletSet(np.flatnonzero(left), angular_velocity=(-0.4 * math.pi, 0, 0),
+                                 centre=centre, source=f"{src}: min-x handle"))
+        sets.append(DirichletSet(np.flatnonzero(right), angular_velocity=(0.4 * math.pi, 0, 0),
+                                 centre=centre, source=f"{src}: max-x handle"))
+    elif name == "fixLowerHalf":
+        lower = initial[:, 1] < lo[1] + 0.5 * rng[1]
+        sets.append(DirichletSet(np.flatnonzero(lower), source=f"{src}: lower half fixed"))
+    elif name == "pushRightMost1":
+        right = np.flatnonzero(initial[:, 0] > hi[0] - 1e-3 * rng[0])
+        sets.append(DirichletSet(right[:1], linear_velocity=(-0.15, 0.0, 0.0),
+                                 source=f"{src}: right-most vertex pushed"))
+    else:
+        raise _scene_error(scene, None, f"script '{name}' is not supported "
+                                        f"(supported: {', '.join(SUPPORTED_SCRIPTS)})")
+    for s in sets:
+        if len(s.vertices) == 0:
+            warnings.append(f"{s.source}: selects no vertex")
+    return [s for s in sets if len(s.vertices)], initial
+
+
+# ----------------------------------------------------------------------------- build
+
+
+def build_model(scene: SceneSpec) -> Model:
+    """Load every mesh of the scene and assemble the frozen Model (§5)."""
+    warnings: list[str] = []
+    null_script = scene.script == "null"
+    if scene.script not in SUPPORTED_SCRIPTS:
+        raise _scene_error(scene, None, f"script '{scene.script}' is not supported "
+                                        f"(supported: {', '.join(SUPPORTED_SCRIPTS)})")
+    if scene.density <= 0.0 or scene.youngs_modulus <= 0.0:
+        raise _scene_error(scene, None, "density and Young's modulus must be positive")
+
+    parts = [_load_shape(scene, i, s, warnings) for i, s in enumerate(scene.shapes)]
+    if not any(p.kind == "tet" for p in parts):
+        raise _scene_error(scene, None, "the scene needs at least one tetrahedral shape "
+                                        "(.msh, .vtk, .vtu or TetGen .node/.ele)")
+    n_scene = len(parts)
+    counts = np.array([len(p.points) for p in parts], dtype=np.int64)
+    offsets = np.concatenate([[0], np.cumsum(counts)])
+    rest = np.concatenate([p.points for p in parts])
+    initial = rest.copy()
+
+    # rotateModel: initial positions only, about the axis through (max - min) / 2 (quirk)
+    if scene.rotate_model is not None and scene.rotate_model[3] != 0.0:
+        axis = np.asarray(scene.rotate_model[:3], dtype=np.float64)
+        if not np.linalg.norm(axis) > 0.0:
+            raise _scene_error(scene, None, "rotateModel needs a non-zero axis")
+        rot = rotation_axis_angle(axis, math.radians(scene.rotate_model[3]))
+        pivot = 0.5 * (initial.max(axis=0) - initial.min(axis=0))
+        initial = (initial - pivot) @ rot.T + pivot
+    # size: scale rest and initial so the initial AABB's largest extent is `size`, min at 0
+    if scene.size > 0.0:
+        f = scene.size / float((initial.max(axis=0) - initial.min(axis=0)).max())
+        rest, initial = rest * f, initial * f
+        shift = initial.min(axis=0)
+        rest, initial = rest - shift, initial - shift
+
+    # legacy scripts and per-shape kinematics (script null)
+    dbc_sets: list[DirichletSet] = []
+    nbc_sets: list[NeumannSet] = []
+    sequences: list[MeshSequence] = []
+    always = np.zeros(len(rest), dtype=bool)
+    for p in parts:
+        rng_i = np.arange(offsets[p.index], offsets[p.index + 1])
+        spec = scene.shapes[p.index]
+        label = f"shape {p.index + 1} ({spec.path or spec.mesh_path.name})"
+        if p.kind != "tet":
+            always[rng_i] = True  # codim shapes are never simulated
+        for verts, nb, j in p.nbc:  # NBCs apply whatever the script
+            src = f"{label} NBC {j + 1}"
+            if len(verts) == 0:
+                warnings.append(f"{src}: box selects no boundary vertex; no BC created")
+                continue
+            nbc_sets.append(NeumannSet(verts + offsets[p.index], tuple(nb.acceleration),
+                                       tuple(nb.time_range), gated=True, source=src))
+        if not null_script:
+            continue
+        lin, ang = spec.linear_velocity, spec.angular_velocity_deg
+        if spec.mesh_sequence is not None:
+            always[rng_i] = True
+            sequences.append(_mesh_sequence(scene, p, offsets, initial, warnings))
+        elif lin is not None or ang is not None:
+            always[rng_i] = True
+            dbc_sets.append(DirichletSet(
+                rng_i, linear_velocity=tuple(lin or (0.0, 0.0, 0.0)),
+                angular_velocity=tuple(math.radians(w) for w in (ang or (0.0, 0.0, 0.0))),
+                source=f"{label} velocity"))
+        elif p.kind != "tet":
+            dbc_sets.append(DirichletSet(rng_i, source=f"{label} (codim, fixed)"))
+    if null_script:
+        for p in parts:
+            spec = scene.shapes[p.index]
+            label = f"shape {p.index + 1} ({spec.path or spec.mesh_path.name})"
+            for verts, d, j in p.dbc:
+                src = f"{label} DBC {j + 1}"
+                if len(verts) == 0:
+                    warnings.append(f"{src}: box selects no boundary vertex; no BC created")
+                    continue
+                dbc_sets.append(DirichletSet(
+                    verts + offsets[p.index], linear_velocity=tuple(d.linear_velocity),
+                    angular_velocity=tuple(math.radians(w) for w in d.angular_velocity_deg),
+                    time_range=tuple(d.time_range), gated=True, source=src))
+    else:
+        ignored = [k for k, present in (
+            ("DBC", any(s.dbc for s in scene.shapes)),
+            ("linearVelocity", any(s.linear_velocity is not None for s in scene.shapes)),
+            ("angularVelocity", any(s.angular_velocity_deg is not None for s in scene.shapes)),
+            ("initVel", any(s.init_velocity is not None for s in scene.shapes)),
+            ("meshSeq", any(s.mesh_sequence is not None for s in scene.shapes))) if present]
+        if ignored:
+            warnings.append(f"script {scene.script}: per-shape {', '.join(ignored)} "
+                            "not applied (as in the original)")
+        if scene.script != "DCOFix" and any(p.kind != "tet" for p in parts):
+            warnings.append(f"script {scene.script}: codim shapes are kept fixed "
+                            "(ipcsim does not simulate codim shapes)")
+        legacy, initial = _legacy_script_sets(scene, parts, offsets, rest, initial, warnings)
+        dbc_sets.extend(legacy)
+
+    # meshCO obstacles: fixed surfaces appended after the scene's shapes (not rescaled)
+    obstacles = [_load_obstacle(scene, n_scene + k, ob)
+                 for k, ob in enumerate(scene.mesh_obstacles)]
+    for ob in obstacles:
+        rest = np.concatenate([rest, ob.points])
+        initial = np.concatenate([initial, ob.points])
+        offsets = np.append(offsets, len(rest))
+        always = np.concatenate([always, np.ones(len(ob.points), dtype=bool)])
+    all_parts = parts + obstacles
+    n = len(rest)
+    vertex_shape = np.repeat(np.arange(len(all_parts)), np.diff(offsets))
+
+    # tets: rest shape, materials, masses
+    tet_blocks = [p.tets + offsets[p.index] for p in all_parts]
+    tets = np.concatenate(tet_blocks).astype(np.int64)
+    tet_counts = np.array([len(p.tets) for p in all_parts], dtype=np.int64)
+    tet_offsets = np.concatenate([[0], np.cumsum(tet_counts)])
+    tet_shape = np.repeat(np.arange(len(all_parts)), tet_counts)
+    mat = np.array([p.material for p in all_parts], dtype=np.float64).reshape(-1, 3)
+    x0 = rest[tets[:, 0]]
+    dm = np.stack([rest[tets[:, 1]] - x0, rest[tets[:, 2]] - x0, rest[tets[:, 3]] - x0],
+                  axis=2)  # Dm = [x1 - x0, x2 - x0, x3 - x0] as columns
+    vol = np.linalg.det(dm) / 6.0  # V = det(Dm) / 6
+    if np.any(~(vol > 0.0)):
+        bad = int(np.flatnonzero(~(vol > 0.0))[0])
+        raise _scene_error(scene, all_parts[tet_shape[bad]].line,
+                           "placement or `size` made a tetrahedron degenerate")
+    dm_inv = np.linalg.inv(dm)
+    lame = lame_parameters(mat[tet_shape, 1], mat[tet_shape, 2])
+    rho_tet = mat[tet_shape, 0]
+    # lumped mass: each tet gives rho V / 4 to each of its 4 vertices
+    mass = np.bincount(tets.ravel(), weights=np.repeat(rho_tet * vol / 4.0, 4), minlength=n)
+
+    # collision mesh and codim masses
+    tri_blocks, tri_shape, edge_blocks, edge_shape, point_blocks = [], [], [], [], []
+    tet_vertex = np.zeros(n, dtype=bool)
+    tet_vertex[tets.ravel()] = True
+    for p in all_parts:
+        off = offsets[p.index]
+        if len(p.triangles):
+            tris = p.triangles + off
+            tri_blocks.append(tris)
+            tri_shape.append(np.full(len(tris), p.index))
+            e = unique_edges(tris)
+            edge_blocks.append(e)
+            edge_shape.append(np.full(len(e), p.index))
+            if p.kind in ("surface", "obstacle"):
+                corner = voronoi_triangle_masses(rest, tris, scene.density)
+                mass += np.bincount(tris.ravel(), weights=corner.ravel(), minlength=n)
+        if p.kind == "segments":
+            e = p.edges + off
+            edge_blocks.append(e)
+            edge_shape.append(np.full(len(e), p.index))
+            seg_len = np.linalg.norm(rest[e[:, 0]] - rest[e[:, 1]], axis=1)
+            # each end of a segment of length L gets rho pi L^3 / 12
+            mass += np.bincount(e.ravel(), weights=np.repeat(scene.density * math.pi
+                                                              * seg_len**3 / 12.0, 2), minlength=n)
+        if p.kind == "points":
+            point_blocks.append(np.arange(offsets[p.index], offsets[p.index + 1]))
+    avg_tet_mass = float(mass[tet_vertex].mean())
+    for pts in point_blocks:  # point clouds: the average tet-vertex mass each
+        mass[pts] = avg_tet_mass
+    empty3, empty2 = np.zeros((0, 3), np.int64), np.zeros((0, 2), np.int64)
+    surface_triangles = np.concatenate(tri_blocks) if tri_blocks else empty3
+    triangle_shape = np.concatenate(tri_shape) if tri_shape else np.zeros(0, np.int64)
+    surface_edges = np.concatenate(edge_blocks) if edge_blocks else empty2
+    edge_shape_arr = np.concatenate(edge_shape) if edge_shape else np.zeros(0, np.int64)
+    surface_vertices = np.unique(np.concatenate(
+        [surface_triangles.ravel(), surface_edges.ravel(), *point_blocks,
+         np.zeros(0, np.int64)]).astype(np.int64))
+
+    # l: rest AABB diagonal of all tet shapes
+    tet_rest = rest[tet_vertex]
+    l = float(np.linalg.norm(tet_rest.max(axis=0) - tet_rest.min(axis=0)))
+    if not l > 0.0:
+        raise _scene_error(scene, None, "the tet shapes have a zero bounding box")
+
+    # initial velocities: initVel on tet shapes (script null), v + w x (x - c)
+    velocities = np.zeros((n, 3))
+    scripted = always.copy()
+    for s in dbc_sets:
+        scripted[s.vertices] = True  # the original never gives DBC vertices an initVel
+    if null_script:
+        for p in parts:
+            iv = scene.shapes[p.index].init_velocity
+            if iv is None:
+                continue
+            if p.kind != "tet":
+                warnings.append(f"shape {p.index + 1}: initVel ignored on a codim shape")
+                continue
+            sl = slice(offsets[p.index], offsets[p.index + 1])
+            x = initial[sl]
+            c = 0.5 * (x.min(axis=0) + x.max(axis=0))  # initial AABB centre of the shape
+            w = np.radians(np.asarray(iv.angular_deg, dtype=np.float64))
+            v = np.asarray(iv.linear, dtype=np.float64) + np.cross(w, x - c)
+            v[scripted[sl]] = 0.0
+            velocities[sl] = v
+
+    restart_step = 0
+    if scene.restart is not None:
+        restart_step, pos, vel = mesh_io.read_status(scene.restart)
+        n_own = int(offsets[n_scene])
+        if len(pos) != n_own:
+            raise SceneError(scene.restart, None, f"restart file has {len(pos)} vertices, "
+                                                  f"the scene has {n_own}")
+        initial[:n_own], velocities[:n_own] = pos, vel
+
+    # analytic planes
+    if scene.planes:
+        origins = np.array([p.origin for p in scene.planes], dtype=np.float64)
+        normals = np.array([p.normal for p in scene.planes], dtype=np.float64)
+        norms = np.linalg.norm(normals, axis=1)
+        if np.any(~(norms > 0.0)):
+            raise _scene_error(scene, scene.planes[int(np.argmin(norms))].line,
+                               "half-space normal must be non-zero")
+        normals = normals / norms[:, None]
+        friction = np.array([p.friction for p in scene.planes], dtype=np.float64)
+    else:
+        origins, normals, friction = np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0)
+
+    # absolute parameters (§4.4): relative ones times l unless useAbsParameters
+    rel = 1.0 if scene.use_abs_parameters else l
+    dhat = scene.dhat_abs if scene.dhat_abs is not None else scene.dhat * rel
+    if scene.dhat_abs is not None and scene.dhat_start is None:
+        dhat_start = dhat
+    else:
+        dhat_start = (scene.dhat_start if scene.dhat_start is not None else scene.dhat) * rel
+    epsv = scene.epsv_abs if scene.epsv_abs is not None else scene.epsv * rel
+    kappa = scene.kappa if scene.kappa else None
+    h = scene.dt
+    damping = 0.75 * scene.damping_ratio * h**3 if scene.damping_ratio > 0 else max(
+        scene.damping_stiff, 0.0)
+
+    kinds = tuple(p.kind for p in all_parts)
+    elastic_shape = np.array([k == "tet" for k in kinds], dtype=bool)
+    for i in range(len(all_parts)):
+        sl = slice(offsets[i], offsets[i + 1])
+        if elastic_shape[i] and np.all(always[sl]):
+            elastic_shape[i] = False  # velocity / meshSeq tet shapes are kinematic
+
+    model = Model(
+        scene=scene,
+        rest_positions=rest, initial_positions=initial, initial_velocities=velocities,
+        mass=mass, vertex_shape=vertex_shape, always_kinematic=always,
+        tets=tets, tet_shape=tet_shape, rest_volumes=vol, Dm_inv=dm_inv, lame=lame,
+        elastic_tets=elastic_shape[tet_shape],
+        shape_names=tuple(p.name for p in all_parts), shape_kinds=kinds,
+        shape_offsets=offsets.astype(np.int64), shape_tet_offsets=tet_offsets,
+        surface_triangles=surface_triangles, triangle_shape=triangle_shape,
+        surface_edges=surface_edges, edge_shape=edge_shape_arr,
+        surface_vertices=surface_vertices,
+        plane_origins=origins, plane_normals=normals, plane_friction=friction,
+        bbox_diagonal=l, dhat=float(dhat), dhat_start=float(dhat_start), epsv=float(epsv),
+        dtol=float(scene.dtol * rel), kappa=kappa, damping_stiffness=float(damping),
+        gravity=np.array(GRAVITY if scene.gravity else (0.0, 0.0, 0.0)),
+        dbc_sets=tuple(dbc_sets), nbc_sets=tuple(nbc_sets), mesh_sequences=tuple(sequences),
+        restart_step=int(restart_step), terms=(), warnings=tuple(warnings),
+    )
+    return dataclasses.replace(model, terms=describe_terms(model))
+
+
+def _mesh_sequence(scene: SceneSpec, p: _Part, offsets, initial, warnings) -> MeshSequence:
+    spec = scene.shapes[p.index]
+    folder = Path(spec.mesh_sequence)
+    if not folder.is_dir():
+        raise MeshError(folder, spec.line, "meshSeq folder not found")
+    seq = MeshSequence(shape=p.index, start=int(offsets[p.index]),
+                       stop=int(offsets[p.index + 1]), folder=folder,
+                       ext=SEQUENCE_EXT[p.kind], line=spec.line)
+    first = mesh_io.read_frame_positions(seq.frame_path(0), seq.ext, spec.line)
+    if len(first) != seq.stop - seq.start:
+        raise MeshError(seq.frame_path(0), spec.line,
+                        f"mesh-sequence frame has {len(first)} vertices, the shape has "
+                        f"{seq.stop - seq.start}")
+    x = initial[seq.start:seq.stop]
+    size = float(np.linalg.norm(x.max(axis=0) - x.min(axis=0))) or 1.0
+    if float(np.abs(first - x).max()) > 1e-6 * size:
+        warnings.append(f"shape {p.index + 1}: meshSeq frame 0 differs from the shape's "
+                        "initial placement")
+    return seq
+
+
+def describe_terms(model: Model) -> tuple[str, ...]:
+    """Human-readable list of exactly the terms the scene needs."""
+    scene = model.scene
+    terms = []
+    if scene.integrator == "NM":
+        terms.append(f"inertia (Newmark, beta={scene.newmark_beta:g}, "
+                     f"gamma={scene.newmark_gamma:g})")
+    else:
+        terms.append("inertia (backward Euler)")
+    if scene.gravity:
+        terms.append("gravity")
+    elastic_shapes = sorted(set(model.tet_shape[model.elastic_tets].tolist()))
+    if elastic_shapes:
+        k = len(elastic_shapes)
+        terms.append(f"elasticity: {ENERGY_NAMES.get(scene.energy, scene.energy)} "
+                     f"({k} shape{'s' if k != 1 else ''})")
+    if model.needs_damping:
+        terms.append(f"damping (stiffness {model.damping_stiffness:g})")
+    if model.n_planes:
+        terms.append(f"plane contact ({model.n_planes} plane{'s' if model.n_planes != 1 else ''})")
+    if model.needs_mesh_contact:
+        what = []
+        if model.needs_self_contact:
+            what.append("self collision on")
+        elif not scene.self_collision:
+            what.append("self collision off")
+        n_ob = model.shape_kinds.count("obstacle")
+        if n_ob:
+            what.append(f"{n_ob} meshCO obstacle{'s' if n_ob != 1 else ''}")
+        terms.append(f"mesh contact ({', '.join(what)})")
+    if model.needs_friction:
+        parts = []
+        if scene.self_friction > 0 and model.needs_self_contact:
+            parts.append(f"mu={scene.self_friction:g} self")
+        for pl, mu in zip(scene.planes, model.plane_friction):
+            if mu > 0:
+                parts.append(f"{'ground' if pl.kind == 'ground' else 'half-space'} {mu:g}")
+        terms.append(f"friction ({', '.join(parts)})")
+    if model.nbc_sets:
+        k = len(model.nbc_sets)
+        terms.append(f"Neumann BC ({k} set{'s' if k != 1 else ''})")
+    if model.dbc_sets:
+        moving = sum(1 for s in model.dbc_sets if s.moving)
+        fixed = len(model.dbc_sets) - moving
+        bits = []
+        if moving:
+            bits.append(f"{moving} moving set{'s' if moving != 1 else ''}")
+        if fixed:
+            bits.append(f"{fixed} fixed set{'s' if fixed != 1 else ''}")
+        terms.append(f"Dirichlet BC ({', '.join(bits)})")
+    if model.mesh_sequences:
+        k = len(model.mesh_sequences)
+        terms.append(f"mesh sequence ({k} shape{'s' if k != 1 else ''})")
+    return tuple(terms)

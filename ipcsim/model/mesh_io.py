@@ -1,0 +1,418 @@
+"""Mesh readers: plain numpy arrays in, every failure a ``MeshError`` naming the file.
+
+Formats (docs/ipc-scene-format.md §6):
+
+* tet meshes: Gmsh ``.msh`` 2.2 / 4.1 (meshio, ``file_format="gmsh"``; the original's
+  trailing ``$Surface`` block is ignored and the boundary recomputed), ``.vtk`` / ``.vtu``
+  (meshio), TetGen ``.node`` + ``.ele`` (own reader);
+* ``.obj`` triangle surfaces (meshio, with a minimal fallback parser for files meshio
+  rejects, e.g. normal-count mismatches);
+* ``.seg`` segments (``v x y z`` / ``s i j``, 1-based; missing file -> unique edges of the
+  ``.obj`` of the same stem) and ``.pt`` points (``v`` lines; missing -> the ``.obj``'s
+  vertices);
+* the original's ``status<n>`` restart files.
+
+Every reader takes ``(path, line)``: ``line`` is the scene line that asked for the file and
+is carried into the ``MeshError`` so a user sees which shape failed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import MeshError
+from .surface import tet_signed_volumes, unique_edges, unique_undirected
+
+# `v x y z` and `s i j` records of OBJ-like text files (one match per line, in C via re)
+_V_RE = re.compile(r"^[ \t]*v[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)", re.M)
+_S_RE = re.compile(r"^[ \t]*s[ \t]+(\S+)[ \t]+(\S+)", re.M)
+_F_RE = re.compile(r"^[ \t]*f[ \t]+([^\n#]*)", re.M)
+
+
+def _err(path, line, message: str) -> MeshError:
+    return MeshError(path, line, message)
+
+
+def _read_text(path: Path, line) -> str:
+    try:
+        return Path(path).read_text(encoding="utf-8", errors="replace")
+    except FileNotFoundError:
+        raise _err(path, line, "mesh file not found") from None
+    except OSError as exc:
+        raise _err(path, line, f"cannot read mesh file ({exc.strerror or exc})") from None
+
+
+def _meshio_read(path: Path, line, file_format: str):
+    """Read with meshio's per-format reader; every exception (and chatter) contained.
+
+    The per-format readers raise instead of printing and calling ``sys.exit`` as
+    ``meshio.read`` does on a ReadError.
+    """
+    import meshio
+
+    if not Path(path).is_file():
+        raise _err(path, line, "mesh file not found")
+    readers = {"gmsh": meshio.gmsh.read, "vtk": meshio.vtk.read, "vtu": meshio.vtu.read,
+               "obj": meshio.obj.read}
+    try:
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            return readers[file_format](str(path))
+    except (Exception, SystemExit) as exc:  # ReadError, ValueError, IndexError, ...
+        msg = str(exc).strip() or type(exc).__name__
+        raise _err(path, line, f"cannot read mesh ({msg})") from None
+
+
+def _to_float_array(tokens, path, line, what: str) -> np.ndarray:
+    try:
+        return np.asarray(tokens, dtype=np.float64)
+    except ValueError:
+        raise _err(path, line, f"non-numeric {what}") from None
+
+
+def _to_int_array(tokens, path, line, what: str) -> np.ndarray:
+    try:
+        arr = np.asarray(tokens, dtype=np.float64)
+    except ValueError:
+        raise _err(path, line, f"non-numeric {what}") from None
+    if arr.size and (not np.all(np.isfinite(arr)) or np.any(arr != np.round(arr))):
+        raise _err(path, line, f"non-integer {what}")
+    return arr.astype(np.int64)
+
+
+# ----------------------------------------------------------------------------- validation
+
+
+def check_points(points: np.ndarray, path, line) -> np.ndarray:
+    """(n, 3) float64 with finite coordinates, else MeshError."""
+    p = np.asarray(points, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] not in (2, 3):
+        raise _err(path, line, f"expected 3-D vertex coordinates, got shape {p.shape}")
+    if p.shape[1] == 2:  # planar file: z = 0
+        p = np.concatenate([p, np.zeros((len(p), 1))], axis=1)
+    bad = ~np.all(np.isfinite(p), axis=1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise _err(path, line, f"{int(bad.sum())} vertices have NaN/inf coordinates "
+                               f"(first: vertex {i + 1})")
+    return np.ascontiguousarray(p)
+
+
+def check_indices(cells: np.ndarray, n_points: int, path, line, what: str) -> np.ndarray:
+    """Connectivity with every index in [0, n_points), else MeshError (reported 1-based);
+    ``what`` names one cell ('tet', 'triangle', 'segment')."""
+    c = np.asarray(cells, dtype=np.int64)
+    if c.size and (c.min() < 0 or c.max() >= n_points):
+        bad = np.flatnonzero(np.any((c < 0) | (c >= n_points), axis=1))
+        raise _err(path, line, f"{len(bad)} {what}s reference vertices outside 1..{n_points} "
+                               f"(first: {what} {bad[0] + 1})")
+    return c
+
+
+def check_tets(points: np.ndarray, tets: np.ndarray, path, line) -> None:
+    """Every tet positively oriented with non-negligible volume, else MeshError.
+
+    Degenerate: 6|V| <= 1e-12 * (longest edge)^3 (repeated vertices, flat slivers);
+    inverted: det[x1 - x0, x2 - x0, x3 - x0] < 0.
+    """
+    if len(tets) == 0:
+        return
+    vol6 = 6.0 * tet_signed_volumes(points, tets)
+    x = points[tets]  # (m, 4, 3)
+    pairs = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
+    longest = np.linalg.norm(x[:, pairs[:, 0]] - x[:, pairs[:, 1]], axis=2).max(axis=1)
+    degenerate = np.abs(vol6) <= 1e-12 * longest**3
+    inverted = (vol6 < 0) & ~degenerate
+    if degenerate.any():
+        i = int(np.flatnonzero(degenerate)[0])
+        raise _err(path, line, f"{int(degenerate.sum())} tetrahedra have zero volume "
+                               f"(first: tet {i + 1}, vertices {(tets[i] + 1).tolist()})")
+    if inverted.any():
+        i = int(np.flatnonzero(inverted)[0])
+        raise _err(path, line, f"{int(inverted.sum())} tetrahedra are inverted (negative volume; "
+                               f"first: tet {i + 1}, vertices {(tets[i] + 1).tolist()})")
+
+
+def _drop_unreferenced(points: np.ndarray, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Remove vertices no cell uses (e.g. Gmsh geometry points) and renumber the cells."""
+    used = np.zeros(len(points), dtype=bool)
+    used[cells.ravel()] = True
+    if used.all():
+        return points, cells
+    new_index = np.cumsum(used) - 1  # old index -> new index for used vertices
+    return points[used], new_index[cells]
+
+
+# ----------------------------------------------------------------------------- tet meshes
+
+
+def read_tet_mesh(path, line: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Read a tetrahedral mesh: (points (n, 3) float64, tets (m, 4) int64, 0-based).
+
+    Vertices used by no tet are dropped (and the tets renumbered). Raises MeshError for an
+    unreadable file, a file without linear tets, NaN/inf coordinates, out-of-range indices,
+    zero-volume or inverted tets.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix == ".ele" or suffix == "" or suffix == ".node":
+        points, tets = read_tetgen(path, line)
+    else:
+        fmt = {".msh": "gmsh", ".vtk": "vtk", ".vtu": "vtu"}.get(suffix)
+        if fmt is None:
+            raise _err(path, line, f"unsupported tet mesh format '{suffix}' "
+                                   "(use .msh, .vtk, .vtu or TetGen .node/.ele)")
+        mesh = _meshio_read(path, line, fmt)
+        blocks = [c.data for c in mesh.cells if c.type == "tetra"]
+        if not blocks:
+            kinds = sorted({c.type for c in mesh.cells})
+            hint = ""
+            if "triangle" in kinds:
+                hint = " (a triangle surface is not a solid: tetrahedralize it, or use an .obj "\
+                       "shape for a kinematic surface)"
+            if "tetra10" in kinds:
+                hint = " (only linear 4-node tetrahedra are supported)"
+            raise _err(path, line, f"no tetrahedra in mesh (cells: {', '.join(kinds) or 'none'})"
+                                   f"{hint}")
+        points = check_points(mesh.points, path, line)
+        tets = check_indices(np.concatenate(blocks).astype(np.int64), len(points), path, line,
+                             "tet")
+    points, tets = _drop_unreferenced(points, tets)
+    check_tets(points, tets, path, line)
+    return points, np.ascontiguousarray(tets, dtype=np.int64)
+
+
+def _tokens(path: Path, line) -> np.ndarray:
+    """All whitespace-separated tokens of a text file, ``#`` comments removed."""
+    text = re.sub(r"#[^\n]*", "", _read_text(path, line))
+    return np.array(text.split(), dtype=object)
+
+
+def read_tetgen(path, line: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """TetGen ``<base>.node`` + ``<base>.ele`` (shape path ``<base>.ele`` or ``<base>``).
+
+    ``.node``: header ``N 3 attrs markers`` then N rows ``id x y z [attrs] [marker]``;
+    ``.ele``: header ``M 4 attrs`` then M rows ``id a b c d [attrs]``. Rows have a fixed
+    width given by the header, so both files are parsed as one token array. Element
+    indices refer to node ids; the numbering base (0 or 1) is taken from the first node id
+    (the original uses the indices as-is, i.e. requires 0-based files; both agree there).
+    """
+    path = Path(path)
+    base = path.with_suffix("") if path.suffix.lower() in (".ele", ".node") else path
+    node_path, ele_path = base.with_name(base.name + ".node"), base.with_name(base.name + ".ele")
+
+    tok = _tokens(node_path, line)
+    try:
+        n, dim, n_attr, n_mark = (int(t) for t in tok[:4])
+    except ValueError:
+        raise _err(node_path, line, "bad .node header (expected 'N 3 attrs markers')") from None
+    if dim != 3:
+        raise _err(node_path, line, f".node dimension is {dim}, expected 3")
+    width = 4 + n_attr + (1 if n_mark else 0)  # id x y z attrs [marker]
+    if len(tok) < 4 + n * width:
+        raise _err(node_path, line, f"truncated .node file (expected {n} vertices)")
+    table = _to_float_array(tok[4:4 + n * width].reshape(n, width)[:, :4].astype(str),
+                            node_path, line, "vertex record")
+    first_id = int(table[0, 0]) if n else 0
+    points = check_points(table[:, 1:4], node_path, line)
+
+    tok = _tokens(ele_path, line)
+    try:
+        m, per, n_attr = (int(t) for t in tok[:3])
+    except ValueError:
+        raise _err(ele_path, line, "bad .ele header (expected 'M 4 attrs')") from None
+    if per != 4:
+        raise _err(ele_path, line, f"{per}-node elements; only linear 4-node tets are supported")
+    width = 1 + per + n_attr  # id a b c d attrs
+    if len(tok) < 3 + m * width:
+        raise _err(ele_path, line, f"truncated .ele file (expected {m} tetrahedra)")
+    rows = tok[3:3 + m * width].reshape(m, width)[:, 1:5].astype(str)
+    tets = _to_int_array(rows, ele_path, line, "tet record") - first_id
+    tets = check_indices(tets, len(points), ele_path, line, "tet")
+    return points, tets
+
+
+# ----------------------------------------------------------------------------- surfaces
+
+
+def _parse_obj_minimal(path: Path, line) -> tuple[np.ndarray, np.ndarray]:
+    """Fallback OBJ parser: ``v`` lines and ``f`` lines (``a/b/c`` keeps ``a``; negative
+    indices count from the end). Non-triangle faces raise MeshError."""
+    text = _read_text(path, line)
+    verts = _to_float_array(_V_RE.findall(text), path, line, "vertex coordinate").reshape(-1, 3)
+    faces = [re.sub(r"/\S*", "", f).split() for f in _F_RE.findall(text)]  # drop /vt/vn
+    sizes = np.fromiter(map(len, faces), dtype=np.int64, count=len(faces))
+    if np.any(sizes != 3):
+        raise _err(path, line, f"{int((sizes != 3).sum())} faces are not triangles "
+                               "(only triangle meshes are supported)")
+    idx = _to_int_array(faces, path, line, "face index").reshape(-1, 3)
+    idx = np.where(idx < 0, len(verts) + idx, idx - 1)  # OBJ: 1-based, negative = relative
+    return verts, idx
+
+
+def read_obj(path, line: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Triangle surface: (points (n, 3), triangles (k, 3) int64, 0-based).
+
+    Faces that are not triangles are a MeshError (as in the original, which reads OBJs
+    with libigl and exits on mixed polygon sizes)."""
+    path = Path(path)
+    try:
+        mesh = _meshio_read(path, line, "obj")
+    except MeshError:
+        if not path.is_file():
+            raise
+        points, triangles = _parse_obj_minimal(path, line)  # e.g. normal-count mismatch
+    else:
+        other = sorted({c.type for c in mesh.cells} - {"triangle"})
+        if other:
+            raise _err(path, line, f"faces that are not triangles ({', '.join(other)}); "
+                                   "only triangle meshes are supported")
+        points = np.asarray(mesh.points, dtype=np.float64)
+        tris = [c.data for c in mesh.cells]
+        triangles = np.concatenate(tris).astype(np.int64) if tris else np.zeros((0, 3), np.int64)
+    points = check_points(points, path, line)
+    triangles = check_indices(triangles.reshape(-1, 3), len(points), path, line, "triangle")
+    return points, triangles
+
+
+def check_triangles(points: np.ndarray, triangles: np.ndarray, path, line) -> None:
+    """A usable triangle surface: at least one triangle, no repeated vertex in a face."""
+    if len(triangles) == 0:
+        raise _err(path, line, "no triangles in surface mesh")
+    t = np.sort(triangles, axis=1)
+    rep = (t[:, 0] == t[:, 1]) | (t[:, 1] == t[:, 2])
+    if rep.any():
+        i = int(np.flatnonzero(rep)[0])
+        raise _err(path, line, f"{int(rep.sum())} degenerate triangles with a repeated vertex "
+                               f"(first: face {i + 1})")
+
+
+def read_seg(path, line: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Segments: (points (n, 3), edges (e, 2) int64, 0-based).
+
+    ``<stem>.seg`` holds ``v x y z`` and ``s i j`` (1-based) lines; other lines are ignored.
+    If it does not exist, ``<stem>.obj`` is read and its unique undirected triangle edges
+    are used (as the original does; the tutorials rely on it). A path that already names
+    the ``.obj`` is read that way directly.
+    """
+    path = Path(path)
+    if path.suffix.lower() == ".obj":  # the scene reader already resolved the fallback
+        points, triangles = read_obj(path, line)
+        return points, unique_edges(triangles)
+    if not path.is_file():
+        obj = path.with_suffix(".obj")
+        if not obj.is_file():
+            raise _err(path, line, f"mesh file not found (nor the fallback {obj.name})")
+        points, triangles = read_obj(obj, line)
+        return points, unique_edges(triangles)
+    text = _read_text(path, line)
+    points = check_points(
+        _to_float_array(_V_RE.findall(text), path, line, "vertex coordinate").reshape(-1, 3),
+        path, line)
+    edges = _to_int_array(_S_RE.findall(text), path, line, "segment index").reshape(-1, 2) - 1
+    edges = check_indices(edges, len(points), path, line, "segment")
+    if len(points) == 0:
+        raise _err(path, line, "no vertices in segment mesh")
+    if len(edges) == 0:
+        raise _err(path, line, "no segments ('s i j' lines) in segment mesh")
+    if np.any(edges[:, 0] == edges[:, 1]):
+        i = int(np.flatnonzero(edges[:, 0] == edges[:, 1])[0])
+        raise _err(path, line, f"degenerate segment {i + 1} joins a vertex to itself")
+    return points, edges
+
+
+def read_pt(path, line: int | None = None) -> np.ndarray:
+    """Point cloud (n, 3): the ``v`` lines of ``<stem>.pt`` (parsed as OBJ, faces ignored),
+    or the vertices of ``<stem>.obj`` when the ``.pt`` file does not exist."""
+    path = Path(path)
+    if not path.is_file():
+        obj = path.with_suffix(".obj")
+        if not obj.is_file():
+            raise _err(path, line, f"mesh file not found (nor the fallback {obj.name})")
+        path = obj
+    text = _read_text(path, line)
+    points = _to_float_array(_V_RE.findall(text), path, line, "vertex coordinate").reshape(-1, 3)
+    if len(points) == 0:
+        raise _err(path, line, "no vertices ('v x y z' lines) in point file")
+    return check_points(points, path, line)
+
+
+# ----------------------------------------------------------------------------- one shape
+
+
+def read_shape(path, kind: str, line: int | None = None) -> dict[str, np.ndarray]:
+    """Load one scene shape in file coordinates by kind ('tet', 'surface', 'segments',
+    'points'): a dict with ``points`` and, as they apply, ``tets``, ``triangles``, ``edges``.
+    """
+    if kind == "tet":
+        points, tets = read_tet_mesh(path, line)
+        return {"points": points, "tets": tets}
+    if kind == "surface":
+        points, triangles = read_obj(path, line)
+        check_triangles(points, triangles, path, line)
+        return {"points": points, "triangles": triangles}
+    if kind == "segments":
+        points, edges = read_seg(path, line)
+        return {"points": points, "edges": unique_undirected(edges)}
+    if kind == "points":
+        return {"points": read_pt(path, line)}
+    raise _err(path, line, f"unsupported mesh kind {kind!r}")
+
+
+def read_frame_positions(path, ext: str, line: int | None = None) -> np.ndarray:
+    """Vertex positions (n, 3) of one mesh-sequence frame ``<folder>/<k>.<ext>``.
+
+    ext 'msh' (tet shape), 'obj', 'seg' (falls back to ``<k>.obj``), 'pt' (falls back to
+    ``<k>.obj``). Positions are world coordinates.
+    """
+    path = Path(path)
+    if ext == "msh":
+        return read_tet_mesh(path, line)[0]
+    if ext == "obj":
+        return read_obj(path, line)[0]
+    if ext == "seg":
+        return read_seg(path, line)[0]
+    if ext == "pt":
+        return read_pt(path, line)
+    raise _err(path, line, f"unsupported mesh-sequence extension {ext!r}")
+
+
+# ----------------------------------------------------------------------------- restart
+
+
+def read_status(path, line: int | None = None) -> tuple[int, np.ndarray, np.ndarray]:
+    """The original's restart file ``status<n>``: (step n, positions (nV, 3),
+    velocities (nV, 3)).
+
+    Layout: ``timestep n``, ``position nV 3`` + nV rows, ``velocity 3nV`` + 3nV values
+    (x0 y0 z0 x1 ...), then acceleration and dx_Elastic blocks (ignored here).
+    """
+    tokens = _read_text(Path(path), line).split()
+
+    def find(word: str) -> int:
+        try:
+            return tokens.index(word)
+        except ValueError:
+            raise _err(path, line, f"restart file has no '{word}' block") from None
+
+    try:
+        step = int(float(tokens[find("timestep") + 1]))
+        i = find("position")
+        n_v, dim = int(tokens[i + 1]), int(tokens[i + 2])
+        if dim != 3 or n_v < 0:
+            raise ValueError
+        positions = np.asarray(tokens[i + 3:i + 3 + 3 * n_v], dtype=np.float64)
+        j = find("velocity")
+        n_vel = int(tokens[j + 1])
+        velocities = np.asarray(tokens[j + 2:j + 2 + n_vel], dtype=np.float64)
+    except (ValueError, IndexError):
+        raise _err(path, line, "malformed restart (status) file") from None
+    if positions.size != 3 * n_v or n_vel != 3 * n_v or velocities.size != n_vel:
+        raise _err(path, line, "truncated restart (status) file")
+    positions = check_points(positions.reshape(n_v, 3), path, line)
+    velocities = check_points(velocities.reshape(n_v, 3), path, line)
+    return step, positions, velocities

@@ -1,0 +1,307 @@
+"""The frozen simulation model: arrays built once from a SceneSpec by ``build_model``.
+
+Vertices of all shapes are concatenated in scene order (the original's global vertex
+numbering); ``meshCO`` obstacles follow as extra, fixed "obstacle" shapes so that one
+collision mesh covers everything. Every array is read-only.
+
+Units: SI. Angles are radians here (scene files use degrees). Relative scene parameters
+(d-hat, eps_v, dtol, Newton tolerance) are stored absolute, i.e. already multiplied by the
+rest bounding-box diagonal l where the scene says so.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+
+import numpy as np
+
+from ..scene.spec import SceneSpec
+
+INF = math.inf
+
+
+def _freeze(obj, names) -> None:
+    """Copy the named array fields of a frozen dataclass into read-only C-contiguous arrays."""
+    for name in names:
+        value = getattr(obj, name)
+        if isinstance(value, np.ndarray):
+            arr = np.array(value, order="C", copy=True)
+            arr.flags.writeable = False
+            object.__setattr__(obj, name, arr)
+
+
+def _vec3(v) -> tuple[float, float, float]:
+    x, y, z = (float(c) for c in v)
+    return (x, y, z)
+
+
+def _window(w) -> tuple[float, float]:
+    return (float(w[0]), float(w[1]))
+
+
+def _in_window(t: float, window: tuple[float, float]) -> bool:
+    """Time windows are half-open: t0 <= t < t1."""
+    return window[0] <= t < window[1]
+
+
+@dataclass(frozen=True, eq=False)
+class DirichletSet:
+    """Vertices moved kinematically while active: each step of length h,
+    x' = R (x - c) + c + v h with R = Rx(wx h) Ry(wy h) Rz(wz h)."""
+
+    vertices: np.ndarray  # (k,) int64, sorted unique global indices
+    linear_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, world frame
+    angular_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)  # rad/s
+    time_range: tuple[float, float] = (0.0, INF)  # active while t0 <= t < t1
+    centre: tuple[float, float, float] | None = None  # None: midpoint of the set's current AABB
+    gated: bool = False  # the scene's global DBCTimeRange applies as well
+    source: str = ""  # where it came from, for messages
+
+    def __post_init__(self):
+        object.__setattr__(self, "vertices", np.unique(np.asarray(self.vertices, dtype=np.int64)))
+        object.__setattr__(self, "linear_velocity", _vec3(self.linear_velocity))
+        object.__setattr__(self, "angular_velocity", _vec3(self.angular_velocity))
+        object.__setattr__(self, "time_range", _window(self.time_range))
+        if self.centre is not None:
+            object.__setattr__(self, "centre", _vec3(self.centre))
+        _freeze(self, ("vertices",))
+
+    @property
+    def moving(self) -> bool:
+        return any(v != 0.0 for v in self.linear_velocity + self.angular_velocity)
+
+    def active(self, t: float, gate: tuple[float, float] = (0.0, INF)) -> bool:
+        return _in_window(t, self.time_range) and (not self.gated or _in_window(t, gate))
+
+
+@dataclass(frozen=True, eq=False)
+class NeumannSet:
+    """Extra body acceleration a (m/s^2) on free vertices while active: force m_i a."""
+
+    vertices: np.ndarray  # (k,) int64
+    acceleration: tuple[float, float, float]
+    time_range: tuple[float, float] = (0.0, INF)
+    gated: bool = True  # the scene's global NBCTimeRange applies as well
+    source: str = ""
+
+    def __post_init__(self):
+        object.__setattr__(self, "vertices", np.unique(np.asarray(self.vertices, dtype=np.int64)))
+        object.__setattr__(self, "acceleration", _vec3(self.acceleration))
+        object.__setattr__(self, "time_range", _window(self.time_range))
+        _freeze(self, ("vertices",))
+
+    def active(self, t: float, gate: tuple[float, float] = (0.0, INF)) -> bool:
+        return _in_window(t, self.time_range) and (not self.gated or _in_window(t, gate))
+
+
+@dataclass(frozen=True)
+class MeshSequence:
+    """All vertices [start, stop) of one shape follow ``<folder>/<k>.<ext>`` at step k
+    (0-based step index; frame 0 is the initial placement), in world coordinates."""
+
+    shape: int
+    start: int
+    stop: int
+    folder: Path
+    ext: str  # "msh" | "obj" | "seg" | "pt"
+    line: int | None = field(default=None, compare=False)
+
+    def frame_path(self, k: int) -> Path:
+        return Path(self.folder) / f"{k}.{self.ext}"
+
+
+_ARRAY_FIELDS = (
+    "rest_positions", "initial_positions", "initial_velocities", "tets", "tet_shape",
+    "rest_volumes", "Dm_inv", "lame", "mass", "vertex_shape", "shape_offsets",
+    "shape_tet_offsets", "surface_triangles", "triangle_shape", "surface_edges", "edge_shape",
+    "surface_vertices", "plane_origins", "plane_normals", "plane_friction", "always_kinematic",
+    "elastic_tets", "gravity",
+)
+
+
+@dataclass(frozen=True, eq=False)
+class Model:
+    """Everything the simulation needs that does not change during a run."""
+
+    scene: SceneSpec
+
+    # vertices (n)
+    rest_positions: np.ndarray  # (n, 3) float64
+    initial_positions: np.ndarray  # (n, 3) float64
+    initial_velocities: np.ndarray  # (n, 3) float64
+    mass: np.ndarray  # (n,) lumped: rho V / 4 per tet corner; codim as §5.2
+    vertex_shape: np.ndarray  # (n,) int64 shape id
+    always_kinematic: np.ndarray  # (n,) bool: codim shapes, velocity / meshSeq shapes, obstacles
+
+    # tets (m)
+    tets: np.ndarray  # (m, 4) int64 global vertex indices, positively oriented
+    tet_shape: np.ndarray  # (m,) int64
+    rest_volumes: np.ndarray  # (m,) float64 > 0
+    Dm_inv: np.ndarray  # (m, 3, 3) inverse of [x1 - x0, x2 - x0, x3 - x0] (columns), rest
+    lame: np.ndarray  # (m, 2) (mu, lambda) per tet
+    elastic_tets: np.ndarray  # (m,) bool: tets of simulated (non-kinematic) shapes
+
+    # shapes (scene shapes, then meshCO obstacles)
+    shape_names: tuple[str, ...]
+    shape_kinds: tuple[str, ...]  # "tet" | "surface" | "segments" | "points" | "obstacle"
+    shape_offsets: np.ndarray  # (s + 1,) vertex range of shape i is [off[i], off[i+1])
+    shape_tet_offsets: np.ndarray  # (s + 1,) tet range of shape i
+
+    # collision mesh
+    surface_triangles: np.ndarray  # (k, 3) int64; tet boundaries outward, .obj and meshCO
+    triangle_shape: np.ndarray  # (k,) int64
+    surface_edges: np.ndarray  # (e, 2) int64; edges of surface triangles + .seg segments
+    edge_shape: np.ndarray  # (e,) int64
+    surface_vertices: np.ndarray  # (v,) int64 sorted: every vertex that can collide
+
+    # analytic planes (ground / halfSpace): solid side opposite the normal
+    plane_origins: np.ndarray  # (p, 3)
+    plane_normals: np.ndarray  # (p, 3) unit
+    plane_friction: np.ndarray  # (p,)
+
+    # absolute parameters
+    bbox_diagonal: float  # l: rest AABB diagonal of all tet shapes
+    dhat: float  # barrier activation distance (m)
+    dhat_start: float  # start of the d-hat homotopy (= dhat unless `tuning` says otherwise)
+    epsv: float  # static-friction velocity threshold (m/s)
+    dtol: float  # tiny-distance tolerance (m)
+    kappa: float | None  # barrier stiffness; None = adaptive
+    damping_stiffness: float  # effective dampingStiff (dampingRatio r > 0: 0.75 r h^3)
+    gravity: np.ndarray  # (3,) m/s^2 (zeros with turnOffGravity)
+
+    # boundary conditions
+    dbc_sets: tuple[DirichletSet, ...]
+    nbc_sets: tuple[NeumannSet, ...]
+    mesh_sequences: tuple[MeshSequence, ...]
+    restart_step: int  # step counter read from a `restart` file (0 without)
+
+    # what the scene needs, and what the builder noticed
+    terms: tuple[str, ...]
+    warnings: tuple[str, ...] = ()
+
+    def __post_init__(self):
+        _freeze(self, _ARRAY_FIELDS)
+
+    # ---------------------------------------------------------------- sizes
+    @property
+    def n_vertices(self) -> int:
+        return len(self.rest_positions)
+
+    @property
+    def n_tets(self) -> int:
+        return len(self.tets)
+
+    @property
+    def n_shapes(self) -> int:
+        return len(self.shape_kinds)
+
+    @property
+    def n_scene_shapes(self) -> int:
+        """Shapes of the scene file (without the appended meshCO obstacles)."""
+        return sum(1 for k in self.shape_kinds if k != "obstacle")
+
+    @property
+    def n_planes(self) -> int:
+        return len(self.plane_origins)
+
+    # ---------------------------------------------------------------- parameters
+    def newton_tol(self, step: int) -> float:
+        """Absolute Newton tolerance on ||p||_inf for step ``step`` (0-based):
+        tol * l * h, or tol as given with useAbsParameters."""
+        tol = self.scene.newton_tol_at(step)
+        if self.scene.use_abs_parameters:
+            return tol
+        return tol * self.bbox_diagonal * self.scene.dt
+
+    # ---------------------------------------------------------------- which terms
+    @property
+    def has_obstacles(self) -> bool:
+        return "obstacle" in self.shape_kinds
+
+    @property
+    def needs_self_contact(self) -> bool:
+        """Self collision on and the scene's own shapes have something that can touch:
+        some triangle (PT pairs even within one body), two edges, or an edge and another
+        point."""
+        if not self.scene.self_collision:
+            return False
+        own_tri = int(np.count_nonzero(~self._obstacle_mask(self.triangle_shape)))
+        own_edges = int(np.count_nonzero(~self._obstacle_mask(self.edge_shape)))
+        own_points = int(np.count_nonzero(~self._obstacle_mask(self.vertex_shape[self.surface_vertices])))
+        return own_tri > 0 or own_edges > 1 or (own_edges == 1 and own_points > 2)
+
+    @property
+    def needs_mesh_contact(self) -> bool:
+        """Any mesh-mesh contact (self contact, or meshCO obstacles, which collide even
+        with selfCollisionOff)."""
+        return self.needs_self_contact or self.has_obstacles
+
+    @property
+    def needs_plane_contact(self) -> bool:
+        return self.n_planes > 0
+
+    @property
+    def needs_friction(self) -> bool:
+        """Some contact with mu > 0: a plane with friction, or self contact with selfFric.
+        (meshCO friction is ignored, as by the original's interior-point solver.)"""
+        planes = bool(np.any(self.plane_friction > 0.0))
+        return planes or (self.scene.self_friction > 0.0 and self.needs_self_contact)
+
+    @property
+    def needs_damping(self) -> bool:
+        return self.damping_stiffness > 0.0
+
+    @property
+    def plane_contact_vertices(self) -> np.ndarray:
+        """Collision vertices that take part in point-plane contact: every surface vertex
+        that is not kinematic for the whole run (codim, velocity and meshSeq shapes and
+        obstacles move as prescribed; halfspaces never push them)."""
+        return self.surface_vertices[~self.always_kinematic[self.surface_vertices]]
+
+    @property
+    def kinematic_surface_triangles(self) -> np.ndarray:
+        """Triangles of the shapes that have no tets (.obj shapes and meshCO obstacles),
+        e.g. for writing frames: tets plus these cover every triangle of the scene."""
+        kinds = np.array([k in ("surface", "obstacle") for k in self.shape_kinds], dtype=bool)
+        return self.surface_triangles[kinds[self.triangle_shape]] if len(self.triangle_shape) \
+            else self.surface_triangles
+
+    def _obstacle_mask(self, shape_ids: np.ndarray) -> np.ndarray:
+        kinds = np.array([k == "obstacle" for k in self.shape_kinds], dtype=bool)
+        return kinds[shape_ids] if len(shape_ids) else np.zeros(0, dtype=bool)
+
+    def shape_vertices(self, shape: int) -> slice:
+        return slice(int(self.shape_offsets[shape]), int(self.shape_offsets[shape + 1]))
+
+    def summary(self) -> dict[str, object]:
+        """Counts for `ipcsim check` and logs."""
+        kinds: dict[str, int] = {}
+        for k in self.shape_kinds:
+            kinds[k] = kinds.get(k, 0) + 1
+        return {
+            "shapes": kinds,
+            "vertices": self.n_vertices,
+            "tets": self.n_tets,
+            "surface triangles": len(self.surface_triangles),
+            "surface edges": len(self.surface_edges),
+            "collision vertices": len(self.surface_vertices),
+            "kinematic vertices at t=0": int(np.count_nonzero(self.kinematic_mask_at(0.0))),
+            "planes": self.n_planes,
+            "l (bbox diagonal)": self.bbox_diagonal,
+            "dhat": self.dhat,
+            "steps": self.scene.n_steps,
+        }
+
+    def kinematic_mask_at(self, t: float) -> np.ndarray:
+        """(n,) bool: vertices kinematic during the step starting at time t."""
+        mask = np.array(self.always_kinematic, copy=True)
+        for s in self.dbc_sets:
+            if s.active(t, self.scene.dbc_time_range):
+                mask[s.vertices] = True
+        return mask
+
+
+def model_field_names() -> tuple[str, ...]:
+    return tuple(f.name for f in fields(Model))
