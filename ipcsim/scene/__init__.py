@@ -1,1 +1,107 @@
+"""Scene files: the original IPC script format (``.txt`` / ``.ipc``) and TOML (``.toml``).
 
+``load_scene(path)`` reads either into a ``SceneSpec``; ``save_scene(spec, path)`` writes
+either, chosen by the extension. Every mistake in a scene is a ``SceneError`` that prints
+as ``path:line: what is wrong``; warnings are collected in ``SceneSpec.warnings``.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from ..errors import SceneError
+from .spec import (
+    DirichletSpec,
+    InitialVelocitySpec,
+    MaterialSpec,
+    MeshObstacleSpec,
+    NeumannSpec,
+    PlaneSpec,
+    SceneSpec,
+    ShapeSpec,
+)
+from .toml_format import format_toml, parse_toml
+from .txt_format import format_txt, parse_txt
+from .validate import validate_scene
+
+__all__ = [
+    "load_scene",
+    "save_scene",
+    "read_scene_text",
+    "scene_format",
+    "parse_txt",
+    "parse_toml",
+    "format_txt",
+    "format_toml",
+    "validate_scene",
+    "SceneSpec",
+    "ShapeSpec",
+    "MaterialSpec",
+    "DirichletSpec",
+    "NeumannSpec",
+    "InitialVelocitySpec",
+    "PlaneSpec",
+    "MeshObstacleSpec",
+]
+
+TEXT_EXTENSIONS = (".txt", ".ipc")
+TOML_EXTENSIONS = (".toml",)
+
+
+def scene_format(path) -> str:
+    """"txt" or "toml" by the file's extension; anything else is a SceneError."""
+    ext = Path(path).suffix.lower()
+    if ext in TEXT_EXTENSIONS:
+        return "txt"
+    if ext in TOML_EXTENSIONS:
+        return "toml"
+    raise SceneError(path, None, f"unknown scene file extension '{ext}': use .txt or .ipc "
+                                 "(IPC script) or .toml")
+
+
+def read_scene_text(path) -> str:
+    """The file's text (UTF-8, a BOM allowed); a SceneError when it cannot be read."""
+    try:
+        data = Path(path).read_bytes()
+    except FileNotFoundError:
+        raise SceneError(path, None, "scene file not found") from None
+    except IsADirectoryError:
+        raise SceneError(path, None, "is a folder, not a scene file") from None
+    except OSError as exc:
+        raise SceneError(path, None, f"cannot read scene file ({exc.strerror or exc})") from None
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = data[: exc.start].count(b"\n") + 1
+        raise SceneError(path, line, "not UTF-8 text (byte "
+                                     f"0x{data[exc.start]:02x})") from None
+
+
+def load_scene(path) -> SceneSpec:
+    """Read a scene file (.txt/.ipc or .toml) into a validated ``SceneSpec``."""
+    fmt = scene_format(path)
+    text = read_scene_text(path)
+    return parse_txt(text, path) if fmt == "txt" else parse_toml(text, path)
+
+
+def save_scene(spec: SceneSpec, path) -> Path:
+    """Write ``spec`` as .toml or .txt/.ipc (by extension), atomically: the text goes to a
+    temporary file in the same folder, which then replaces ``path`` (os.replace), so a
+    failure never leaves a half-written scene. Returns ``path``."""
+    path = Path(path)
+    fmt = scene_format(path)
+    text = format_txt(spec, path) if fmt == "txt" else format_toml(spec, path)
+    if not path.parent.is_dir() and str(path.parent) != "":
+        raise SceneError(path, None, f"cannot write: folder '{path.parent}' does not exist")
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        with open(tmp, "w", encoding="utf-8", newline="\n") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except OSError as exc:
+        raise SceneError(path, None, f"cannot write ({exc.strerror or exc})") from None
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path

@@ -90,13 +90,16 @@ class ShapeSpec:
     nbc: tuple[NeumannSpec, ...] = ()
     init_velocity: InitialVelocitySpec | None = None
     mesh_sequence: Path | None = None  # resolved folder of per-step meshes
+    # Set only where the extension does not tell the kind: a missing `x.seg` / `x.pt` falls
+    # back to `x.obj` (as in the original), read as its edges / its vertices.
+    mesh_kind: str | None = None
     path: str = field(default="", compare=False)  # as written in the scene
     line: int | None = field(default=None, compare=False)
 
     @property
     def kind(self) -> str:
         """'tet' (simulated), 'surface', 'segments' or 'points' (kinematic)."""
-        return MESH_KINDS[self.mesh_path.suffix.lower()]
+        return self.mesh_kind or MESH_KINDS[self.mesh_path.suffix.lower()]
 
 
 @dataclass(frozen=True)
