@@ -27,7 +27,21 @@ class SceneError(IpcsimError):
 
 
 class MeshError(SceneError):
-    """A mesh file that cannot be used (missing, unreadable, degenerate)."""
+    """A mesh file that cannot be used (missing, unreadable, degenerate).
+
+    ``line`` is the line of the scene that names the mesh; once the model builder knows
+    the scene file it sets ``scene``, and the message reads ``scene:line: mesh: problem``.
+    """
+
+    scene: str | None = None
+
+    def __str__(self) -> str:
+        if self.scene is not None:
+            where = f"{self.scene}:{self.line}" if self.line is not None else self.scene
+            return f"{where}: {self.path}: {self.message}"
+        if self.line is not None:
+            return f"{self.path}: {self.message} (scene line {self.line})"
+        return f"{self.path}: {self.message}"
 
 
 class SolverError(IpcsimError):

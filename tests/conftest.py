@@ -1,21 +1,11 @@
-"""Shared fixtures. The original program's example scenes live beside the project, in
-``../shared/ipc-examples`` (not copied into it); tests that need them skip without them."""
+"""Shared fixtures."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import pytest
-
-REPO_ROOT = Path(__file__).resolve().parents[1]
-IPC_EXAMPLES = REPO_ROOT.parent / "shared" / "ipc-examples"
-
-
-def example_scripts() -> list[Path]:
-    """Every scene script of the original program, or [] when the folder is absent."""
-    if not IPC_EXAMPLES.is_dir():
-        return []
-    return sorted(IPC_EXAMPLES.joinpath("input").rglob("*.txt"))
+from examples import IPC_EXAMPLES, REPO_ROOT
 
 
 @pytest.fixture

@@ -252,6 +252,15 @@ def _legacy_script_sets(scene: SceneSpec, parts, offsets, rest, initial, warning
 
 def build_model(scene: SceneSpec) -> Model:
     """Load every mesh of the scene and assemble the frozen Model (§5)."""
+    try:
+        return _build_model(scene)
+    except MeshError as exc:
+        if exc.scene is None and scene.source is not None:
+            exc.scene = str(scene.source)
+        raise
+
+
+def _build_model(scene: SceneSpec) -> Model:
     warnings: list[str] = []
     null_script = scene.script == "null"
     if scene.script not in SUPPORTED_SCRIPTS:

@@ -9,7 +9,7 @@ import re
 import numpy as np
 import pytest
 
-from conftest import example_scripts
+from examples import example_scripts
 from ipcsim.model.builder import build_model
 from ipcsim.model.kinematics import kinematic_targets, nbc_accelerations
 from ipcsim.model.mesh_io import read_shape

@@ -2,21 +2,7 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
-
-def _root_conftest():
-    # tests/conftest.py by path: with several conftest.py files on sys.path, a plain
-    # `import conftest` may find another one
-    path = Path(__file__).resolve().parents[1] / "conftest.py"
-    spec = importlib.util.spec_from_file_location("_ipcsim_tests_root_conftest", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-example_scripts = _root_conftest().example_scripts
+from examples import example_scripts  # noqa: F401  (re-exported for the scene tests)
 
 MESHES = ("meshes/cube.msh", "meshes/tri.obj", "meshes/edge.seg", "meshes/cloud.pt",
           "meshes/plane.obj", "meshes/fallback.obj", "meshes/tg.node", "meshes/tg.ele",
