@@ -1,0 +1,65 @@
+"""`ipcsim check`: exit 0 with counts on every example script; bad meshes give
+`scene:line: mesh: problem`, exit status 2 and no traceback."""
+
+from __future__ import annotations
+
+import meshio
+import numpy as np
+import pytest
+from examples import example_scripts
+
+from ipcsim.cli import main
+from ipcsim.model.generate import box_tet_mesh
+
+
+@pytest.mark.parametrize("script", example_scripts(), ids=lambda p: p.name)
+def test_check_passes_on_every_example(script, capsys):
+    assert main(["check", str(script)]) == 0
+    out = capsys.readouterr().out
+    for label in ("vertices", "tets", "surface triangles", "surface edges",
+                  "kinematic vertices", "terms"):
+        assert label in out
+
+
+POINTS, TETS = box_tet_mesh(1, 1, 1)
+NAN_POINTS = POINTS.copy()
+NAN_POINTS[3, 1] = np.nan
+FLAT_POINTS = POINTS.copy()
+FLAT_POINTS[:, 2] = 0.0  # every tet has zero volume
+INVERTED_TETS = TETS.copy()
+INVERTED_TETS[0, [0, 1]] = INVERTED_TETS[0, [1, 0]]
+
+TRIANGLE_ONLY = meshio.Mesh(POINTS[:3], [("triangle", np.array([[0, 1, 2]]))])
+BAD_MESHES = [  # (name, file content or a meshio.Mesh, fragment of the message)
+    ("unreadable", "this is not a mesh\n", "cannot read mesh"),
+    ("no tets", TRIANGLE_ONLY, "no tet"),
+    ("nan coordinates", meshio.Mesh(NAN_POINTS, [("tetra", TETS)]), "nan"),
+    ("zero volume", meshio.Mesh(FLAT_POINTS, [("tetra", TETS)]), "volume"),
+    ("inverted", meshio.Mesh(POINTS, [("tetra", INVERTED_TETS)]), "inverted"),
+]
+
+
+@pytest.mark.parametrize("name,content,fragment", BAD_MESHES, ids=[b[0] for b in BAD_MESHES])
+def test_bad_mesh_is_a_clear_error(tmp_path, capsys, name, content, fragment):
+    mesh = "body.vtu"
+    if isinstance(content, meshio.Mesh):
+        meshio.write(tmp_path / mesh, content)
+    else:
+        (tmp_path / mesh).write_text(content)
+    scene = tmp_path / "scene.txt"
+    scene.write_text(f"# a scene\nshapes input 1\n{mesh} 0 0 0  0 0 0  1 1 1\n")
+    assert main(["check", str(scene)]) == 2
+    err = capsys.readouterr().err
+    assert f"{scene}:3: " in err and mesh in err
+    assert fragment in err.lower()
+    assert "Traceback" not in err
+
+
+def test_dbc_box_that_selects_nothing_is_a_warning(tmp_path, capsys):
+    meshio.write(tmp_path / "body.vtu", meshio.Mesh(POINTS, [("tetra", TETS)]))
+    scene = tmp_path / "scene.txt"
+    scene.write_text("shapes input 1\nbody.vtu 0 0 0  0 0 0  1 1 1 "
+                     "DBC 0.4 0.4 0.4  0.6 0.6 0.6  0 0 0  0 0 0\n")
+    assert main(["check", str(scene)]) == 0
+    captured = capsys.readouterr()
+    assert "selects no" in (captured.err + captured.out).lower()
