@@ -95,7 +95,7 @@ def plane_barrier_hessian(x, vertices, origins, normals, s_hat, kappa):
 
 @njit(cache=True)
 def plane_active_count_and_min_distance(x, vertices, origins, normals, s_hat):
-    """Number of pairs with d² < ŝ, and the smallest unsigned distance (inf if none)."""
+    """Number of pairs with d² < ŝ, and the smallest signed distance (inf if none)."""
     count = 0
     dmin = np.inf
     for k in range(origins.shape[0]):
@@ -103,7 +103,7 @@ def plane_active_count_and_min_distance(x, vertices, origins, normals, s_hat):
             d = _signed_distance(x, vertices[j], origins[k], normals[k])
             if d * d < s_hat:
                 count += 1
-            dmin = min(dmin, abs(d))
+            dmin = min(dmin, d)
     return count, dmin
 
 

@@ -1,0 +1,96 @@
+"""Hyperelasticity of the tetrahedral meshes: E(x) = Σₑ V_restₑ Ψ(Fₑ), Fₑ = Ds Dm⁻¹.
+
+Energies (as in the original IPC program), per rest volume:
+
+    "NH"   neo-Hookean      Ψ = μ/2 (tr FᵀF − 3) − μ ln J + λ/2 (ln J)²   (+∞ for J ≤ 0)
+    "FCR"  fixed corotated  Ψ = μ Σ (σᵢ − 1)² + λ/2 (J − 1)²
+
+The math lives in ``ipcsim.kernels.elasticity``; this class holds the per-tet data and
+turns the kernels' arrays into what the solver expects. ``hessian`` projects every element
+Hessian to PSD with the analytic eigensystem of Smith, de Goes and Kim (2019).
+
+``max_step(x, p)`` is this term's line-search bound: for NH the largest α ∈ [0, 1] such that
+no tet loses more than 1 − ``min_volume_ratio`` of its current volume on [x, x + α p] (the
+original IPC's rule, ratio 0.1), so the energy stays finite; FCR is defined for inverted
+elements and returns 1.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..kernels import elasticity as kern
+from .base import Triplets
+
+_MODELS = {
+    "NH": kern.NEO_HOOKEAN,
+    "NEOHOOKEAN": kern.NEO_HOOKEAN,
+    "FCR": kern.FIXED_COROTATED,
+    "FIXEDCOROTATED": kern.FIXED_COROTATED,
+}
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a.setflags(write=False)
+    return a
+
+
+class Elasticity:
+    """Elastic energy of m tets over n vertices.
+
+    tets (m, 4) int, Dm_inv (m, 3, 3), volumes (m,) rest volumes, lame (m, 2) = (μ, λ) per tet
+    (a single (μ, λ) pair is broadcast), energy "NH" or "FCR", n_vertices = n.
+    Positions may be passed as (n, 3) or flat (3n,).
+    """
+
+    name = "elasticity"
+
+    def __init__(self, tets, Dm_inv, volumes, lame, energy: str, n_vertices: int, min_volume_ratio: float = 0.1):
+        key = str(energy).replace("-", "").replace("_", "").replace(" ", "").upper()
+        if key not in _MODELS:
+            raise ValueError(f"unknown elastic energy {energy!r}; expected 'NH' or 'FCR'")
+        self.energy = "NH" if _MODELS[key] == kern.NEO_HOOKEAN else "FCR"
+        self.model = _MODELS[key]
+        self.n_vertices = int(n_vertices)
+        self.tets = np.ascontiguousarray(tets, dtype=np.int64).reshape(-1, 4)
+        m = len(self.tets)
+        self.Dm_inv = np.ascontiguousarray(Dm_inv, dtype=np.float64).reshape(m, 3, 3)
+        self.volumes = np.ascontiguousarray(volumes, dtype=np.float64).reshape(m)
+        self.lame = np.ascontiguousarray(np.broadcast_to(np.asarray(lame, dtype=np.float64), (m, 2)))
+        if m and (self.tets.min() < 0 or self.tets.max() >= self.n_vertices):
+            raise ValueError("tet vertex index out of range")
+        if not (0.0 <= min_volume_ratio < 1.0):
+            raise ValueError("min_volume_ratio must lie in [0, 1)")
+        self.min_volume_ratio = float(min_volume_ratio)
+        # the inputs stay writeable: numba compiles a separate specialisation for read-only
+        # arrays. The Hessian pattern never changes and is shared by every Triplets returned.
+        rows, cols = kern.tet_hessian_pattern(self.tets)
+        self._rows = _frozen(rows)
+        self._cols = _frozen(cols)
+
+    def _positions(self, x) -> np.ndarray:
+        x = np.ascontiguousarray(x, dtype=np.float64).reshape(-1, 3)
+        if len(x) != self.n_vertices:
+            raise ValueError(f"expected {self.n_vertices} vertices, got {len(x)}")
+        return x
+
+    def _args(self):
+        return self.tets, self.Dm_inv, self.volumes, self.lame, self.model
+
+    def value(self, x) -> float:
+        return float(kern.elastic_energy(self._positions(x), *self._args()))
+
+    def per_tet_energy(self, x) -> np.ndarray:
+        return kern.elastic_energy_per_tet(self._positions(x), *self._args())
+
+    def gradient(self, x) -> np.ndarray:
+        return kern.elastic_gradient(self._positions(x), *self._args())
+
+    def hessian(self, x, project_psd: bool = True) -> Triplets:
+        vals = kern.elastic_hessian_values(self._positions(x), *self._args(), bool(project_psd))
+        return Triplets(self._rows, self._cols, vals)
+
+    def max_step(self, x, p) -> float:
+        if self.model != kern.NEO_HOOKEAN or len(self.tets) == 0:
+            return 1.0
+        return float(kern.max_step_no_inversion(self._positions(x), self._positions(p), self.tets, self.min_volume_ratio))

@@ -1,0 +1,252 @@
+"""Simulation: chooses the terms a scene needs (and no more) and owns the step loop.
+
+Each step: compute the kinematic targets and body forces of this step, predict x̃ with the
+integrator, set κ, minimise the incremental potential with projected Newton, then update
+velocities. ``step()`` returns a report (a dict per step plus one per Newton iteration)
+that the run command writes to steps.csv and newton.csv.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .contact.stiffness import balanced_kappa, kappa_bounds, should_double
+from .errors import SolverError, UnsupportedSceneError
+from .model.kinematics import kinematic_targets, nbc_accelerations
+from .potentials.body_force import BodyForce
+from .potentials.damping import Damping
+from .potentials.elasticity import Elasticity
+from .potentials.inertia import Inertia
+from .potentials.plane_contact import PlaneContact
+from .solver.incremental import IncrementalPotential, PhaseTimer
+from .solver.integrator import fix_kinematic_velocities, kinetic_energy, make_integrator
+from .solver.linear import make_solver
+from .solver.newton import NewtonSolver
+
+GRAVITY = np.array([0.0, -9.80665, 0.0])
+MAX_NEWTON_ITERATIONS = 500
+
+
+@dataclass
+class State:
+    """Everything the next step needs: positions, velocities, accelerations, κ, the clock."""
+
+    x: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    step: int = 0
+    kappa: float = 0.0
+    dx_elastic: np.ndarray | None = None  # previous step's non-inertial displacement
+
+
+def unsupported_capabilities(model) -> list[str]:
+    """Capabilities the scene needs that this version cannot simulate yet."""
+    missing = []
+    if model.needs_mesh_contact:
+        missing.append("mesh-mesh contact (the scene has self collision on; "
+                       "`selfCollisionOff` turns it off)")
+    if model.needs_friction:
+        missing.append("friction (some friction coefficient is > 0)")
+    return missing
+
+
+class Simulation:
+    def __init__(self, model, linear_solver: str | None = None):
+        missing = unsupported_capabilities(model)
+        if missing:
+            raise UnsupportedSceneError(
+                "this scene needs " + " and ".join(missing)
+                + ", which ipcsim cannot simulate yet; refusing to simulate less than the "
+                "scene asks")
+        self.model = model
+        scene = model.scene
+        self.h = scene.dt
+        self.integrator = make_integrator(scene.integrator, self.h, scene.newmark_beta,
+                                          scene.newmark_gamma)
+        self.timer = PhaseTimer()
+        self.linear_solver = make_solver(linear_solver or scene.linear_solver)
+        self.newton = NewtonSolver(self.linear_solver, MAX_NEWTON_ITERATIONS)
+        n = len(model.mass)
+        fw = self.integrator.force_weight
+
+        self.inertia = Inertia(model.mass)
+        self.body_force = BodyForce(model.mass)
+        terms = [[1.0, self.inertia], [fw, self.body_force]]
+        self.elasticity = None
+        if len(model.tets):
+            self.elasticity = Elasticity(model.tets, model.Dm_inv, model.rest_volumes,
+                                         model.lame, scene.energy, n)
+            terms.append([fw, self.elasticity])
+        self.damping = None
+        damping_stiff = scene.damping_stiff
+        if scene.damping_ratio > 0:
+            damping_stiff = 0.75 * scene.damping_ratio * self.h ** 3
+        if damping_stiff > 0 and self.elasticity is not None:
+            self.damping = Damping(damping_stiff, self.h, fw)
+            terms.append([1.0, self.damping])
+        self.contacts = []
+        if len(model.plane_normals):
+            self.contacts.append(PlaneContact(model.plane_contact_vertices, model.plane_origins,
+                                              model.plane_normals, model.dhat))
+            terms.extend([1.0, c] for c in self.contacts)
+        self.potential = IncrementalPotential(terms, self.timer)
+
+        tet_vertices = np.unique(model.tets) if len(model.tets) else np.arange(n)
+        self.kappa_min, self.kappa_max = kappa_bounds(
+            model.bbox_diagonal, model.dhat, float(model.mass[tet_vertices].mean()),
+            scene.kappa_min_multiplier)
+        kappa0 = model.kappa if model.kappa is not None else self.kappa_min
+        self.state = State(model.initial_positions.copy(), model.initial_velocities.copy(),
+                           np.zeros((n, 3)), 0, kappa0)
+        self._set_kappa(kappa0)
+        self.check_initial_state()
+
+    # -- contact helpers -------------------------------------------------------------
+    def _set_kappa(self, kappa: float):
+        self.state.kappa = kappa
+        for c in self.contacts:
+            c.kappa = kappa
+
+    def contact_statistics(self, x) -> tuple[int, float]:
+        count, dmin = 0, np.inf
+        for c in self.contacts:
+            k, d = c.statistics(x)
+            count += k
+            dmin = min(dmin, d)
+        return count, dmin
+
+    def check_initial_state(self):
+        x = self.state.x
+        for c in self.contacts:
+            if not np.isfinite(c.value(x)):
+                raise UnsupportedSceneError(
+                    "initial state is infeasible: a surface vertex is on or below a plane "
+                    "(ground/halfSpace); move the shapes or the plane")
+        if self.elasticity is not None and self.model.scene.energy == "NH":
+            if not np.isfinite(self.elasticity.value(x)):
+                raise UnsupportedSceneError("initial state has an inverted tetrahedron")
+
+    def _balance_kappa(self, x):
+        """κ = clamp(−g_B·g_E/‖g_B‖², κ_min, κ_max) over free DOFs (contact terms at κ=1)."""
+        free = np.repeat(~self._kinematic, 3)
+        g_all = self.potential.gradient(x)
+        g_b = np.zeros(x.size)
+        for c in self.contacts:
+            g_b += c.gradient(x) / c.kappa
+        g_rest = g_all - self.state.kappa * g_b
+        return balanced_kappa(g_b[free], g_rest[free], self.kappa_min, self.kappa_max)
+
+    # -- the step ----------------------------------------------------------------------
+    def step(self) -> dict:
+        model, scene, st, h = self.model, self.model.scene, self.state, self.h
+        wall0 = time.perf_counter()
+        self.timer.reset()
+        t = st.step * h
+        kinematic, target = kinematic_targets(model, st.x, t, h)
+        self._kinematic = kinematic
+        accel = np.zeros_like(st.x)
+        if scene.gravity:
+            accel += GRAVITY
+        accel += nbc_accelerations(model, t)
+        accel[kinematic] = 0.0
+        self.body_force.acceleration = accel
+
+        x_n = st.x
+        x_tilde = self.integrator.predict(x_n, st.v, st.a)
+        x_tilde[kinematic] = target[kinematic]
+        self.inertia.x_tilde = x_tilde
+        if self.damping is not None:
+            self.damping.start_step(x_n, self.elasticity.hessian(x_n))
+
+        x0 = self._warm_start(kinematic)
+        tol = model.newton_tol(st.step)
+        newton_rows = []
+        fixed_kappa = model.kappa is not None
+        balanced = [fixed_kappa]
+        prev_min_d_sq = [np.inf]
+        eps_sq = (model.dtol) ** 2
+
+        def before_iteration(x):
+            if not self.contacts:
+                return
+            with self.timer("contact_set"):
+                count, dmin = self.contact_statistics(x)
+            if fixed_kappa:
+                return
+            if count and not balanced[0]:
+                self._set_kappa(self._balance_kappa(x))
+                balanced[0] = True
+            d_sq = dmin * dmin
+            if should_double(prev_min_d_sq[0], d_sq, eps_sq):
+                self._set_kappa(min(self.kappa_max, 2.0 * st.kappa))
+            prev_min_d_sq[0] = d_sq
+
+        def after_iteration(x, info):
+            count, dmin = self.contact_statistics(x)
+            info.update(step=st.step, contacts_plane=count, contacts_total=count,
+                        kappa=st.kappa, min_distance=dmin,
+                        energy=self.potential.value(x),
+                        residual_ratio=info["step_inf_norm"] / tol if tol > 0 else np.nan)
+            newton_rows.append(info)
+
+        x_new, result = self.newton.solve(self.potential, x0, kinematic, target, tol,
+                                          before_iteration, after_iteration)
+        if not np.all(np.isfinite(x_new)):
+            raise SolverError(f"step {st.step}: positions became non-finite")
+
+        v_new, a_new = self.integrator.update(x_new, x_n, st.v, st.a)
+        v_new, a_new = fix_kinematic_velocities(v_new, a_new, kinematic, x_new, x_n, st.v, h)
+        st.dx_elastic = x_new - (x_n + h * st.v + h * h * accel)
+        st.x, st.v, st.a = x_new, v_new, a_new
+        st.step += 1
+
+        count, dmin = self.contact_statistics(x_new)
+        phases = self.timer.reset()
+        row = {
+            "step": st.step, "time": st.step * h, "dt": h,
+            "newton_iterations": result.iterations, "converged": int(result.converged),
+            "hit_iteration_cap": int(result.hit_iteration_cap),
+            "line_search_min_alpha": result.min_alpha, "kappa": st.kappa,
+            "dhat": model.dhat, "min_distance": dmin,
+            "contacts_plane": count, "contacts_point_triangle": 0, "contacts_edge_edge": 0,
+            "contacts_total": count,
+            "energy": self.potential.value(x_new),
+            "kinetic_energy": kinetic_energy(model.mass, v_new),
+            "elastic_energy": self.elasticity.value(x_new) if self.elasticity else 0.0,
+            "wall_s": time.perf_counter() - wall0,
+            "wall_energy_s": phases.get("energy", 0.0),
+            "wall_assembly_s": phases.get("assembly", 0.0),
+            "wall_solve_s": phases.get("solve", 0.0),
+            "wall_ccd_line_search_s": phases.get("ccd_line_search", 0.0),
+            "wall_contact_set_s": phases.get("contact_set", 0.0),
+        }
+        return {"step": row, "newton": newton_rows, "result": result}
+
+    def _warm_start(self, kinematic):
+        """The initial guess of the step for free vertices (``warmStart`` 0..5), cut back
+        by the feasibility bound so it never intersects or inverts."""
+        st, h, scene = self.state, self.h, self.model.scene
+        option = scene.warm_start
+        if option == 0:
+            return st.x.copy()
+        guess = st.x + h * st.v
+        if option >= 2:
+            guess = guess + h * h * self.body_force.acceleration
+        if option == 3 and st.dx_elastic is not None:
+            guess = guess + st.dx_elastic
+        elif option == 4 and st.dx_elastic is not None:
+            guess = guess + 0.5 * st.dx_elastic
+        elif option == 5:
+            # one Jacobi step on the incremental potential from x_n
+            g = self.potential.gradient(st.x)
+            H = self.potential.hessian(st.x)
+            diag = np.bincount(H.rows[H.rows == H.cols], weights=H.vals[H.rows == H.cols],
+                               minlength=st.x.size)
+            guess = st.x - (g / np.where(diag > 0, diag, 1.0)).reshape(-1, 3)
+        p = guess - st.x
+        p[kinematic] = 0.0
+        alpha = min(1.0, self.potential.max_step(st.x, p.reshape(-1)))
+        return st.x + alpha * p
