@@ -169,13 +169,15 @@ class Simulation:
         prev_min_d_sq = [np.inf]
         eps_sq = (model.dtol) ** 2
 
-        def before_iteration(x):
+        def before_iteration(x) -> bool:
+            """Refresh contact data; adapt κ. True when κ changed."""
             if not self.contacts:
-                return
+                return False
             with self.timer("contact_set"):
                 count, dmin = self.contact_statistics(x)
             if fixed_kappa:
-                return
+                return False
+            kappa = st.kappa
             if count and not balanced[0]:
                 self._set_kappa(self._balance_kappa(x))
                 balanced[0] = True
@@ -183,12 +185,12 @@ class Simulation:
             if should_double(prev_min_d_sq[0], d_sq, eps_sq):
                 self._set_kappa(min(self.kappa_max, 2.0 * st.kappa))
             prev_min_d_sq[0] = d_sq
+            return st.kappa != kappa
 
         def after_iteration(x, info):
             count, dmin = self.contact_statistics(x)
             info.update(step=st.step, contacts_plane=count, contacts_total=count,
                         kappa=st.kappa, min_distance=dmin,
-                        energy=self.potential.value(x),
                         residual_ratio=info["step_inf_norm"] / tol if tol > 0 else np.nan)
             newton_rows.append(info)
 

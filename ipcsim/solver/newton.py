@@ -49,8 +49,9 @@ class NewtonSolver:
         """Minimise ``potential`` from ``x`` (n,3). ``kinematic`` (n,) bool marks vertices
         that must reach ``target`` (n,3). Returns (x, NewtonResult).
 
-        ``before_iteration(x)`` refreshes contact sets and κ; ``after_iteration(info)``
-        receives a dict per iteration for the Newton log.
+        ``before_iteration(x)`` refreshes contact sets and κ and returns True when that
+        changed the potential; ``after_iteration(x, info)`` receives a dict per iteration
+        for the Newton log.
         """
         timer = potential.timer
         x = x.copy()
@@ -63,10 +64,11 @@ class NewtonSolver:
         target_flat = target.reshape(-1)
         prescribed = np.abs(target_flat[kin_dofs] - x.reshape(-1)[kin_dofs]).max(initial=0.0)
         result = NewtonResult(kinematic_complete=prescribed == 0.0)
+        energy = None  # E(x), known after a line search
 
         for it in range(self.max_iterations):
-            if before_iteration is not None:
-                before_iteration(x)
+            if before_iteration is not None and before_iteration(x):
+                energy = None  # the potential itself changed (κ)
             g = potential.gradient(x)
             H = potential.hessian(x)
             p = np.zeros(x.size)
@@ -97,20 +99,24 @@ class NewtonSolver:
                 result.converged = True
                 result.iterations = it
                 info["alpha"] = 0.0
+                info["energy"] = potential.value(x) if energy is None else energy
                 if after_iteration is not None:
                     after_iteration(x, info)
                 return x, result
 
             alpha = min(1.0, potential.max_step(x, p))
             if result.kinematic_complete:
-                alpha, failed = self._backtrack(potential, x, p, alpha)
+                alpha, failed, energy = self._backtrack(potential, x, p, alpha, energy)
                 result.line_search_failures += failed
             x_new = x + alpha * p.reshape(-1, 3)
             if alpha == 1.0 and remaining > 0.0:
                 x_new[kinematic] = target[kinematic]  # land exactly on the targets
             x = x_new
+            if not result.kinematic_complete:
+                energy = potential.value(x)
             result.min_alpha = min(result.min_alpha, alpha)
             info["alpha"] = alpha
+            info["energy"] = energy
             if after_iteration is not None:
                 after_iteration(x, info)
 
@@ -119,15 +125,14 @@ class NewtonSolver:
         return x, result
 
     @staticmethod
-    def _backtrack(potential, x, p, alpha):
-        """Halve α until E(x + αp) ≤ E(x). Returns (α, 1 if it gave up else 0)."""
-        timer = potential.timer
-        e0 = potential.value(x)
+    def _backtrack(potential, x, p, alpha, e0=None):
+        """Halve α until E(x + αp) ≤ E(x). Returns (α, 1 if it gave up else 0, E there)."""
+        if e0 is None:
+            e0 = potential.value(x)
         p3 = p.reshape(-1, 3)
         for _ in range(MAX_HALVINGS):
             e = potential.value(x + alpha * p3)
-            with timer("ccd_line_search"):
-                if e <= e0:
-                    return alpha, 0
-                alpha *= 0.5
-        return alpha, 1
+            if e <= e0:
+                return alpha, 0, e
+            alpha *= 0.5
+        return alpha, 1, e
