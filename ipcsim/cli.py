@@ -41,8 +41,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"ipcsim {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
-    p = sub.add_parser("check", help="read a scene, build its model and print what it contains")
-    p.add_argument("scene", help="scene file (.txt or .toml)")
+    p = sub.add_parser("check", help="read a scene, build its model and print what it "
+                       "contains; or verify a run's frames (--frames)")
+    p.add_argument("scene", nargs="?", help="scene file (.txt or .toml)")
+    p.add_argument("--frames", metavar="OUT",
+                   help="check every frame of the run in OUT for intersections and inverted "
+                        "tets (exact predicates); exit 1 if any")
     p.set_defaults(func=_cmd_check)
 
     p = sub.add_parser("run", help="simulate a scene and write frames and logs")
