@@ -99,8 +99,15 @@ class Simulation:
             model.bbox_diagonal, model.dhat, float(model.mass[tet_vertices].mean()),
             scene.kappa_min_multiplier)
         kappa0 = model.kappa if model.kappa is not None else self.kappa_min
+        # initial acceleration (Newmark needs aₙ): body forces on free vertices; the rest
+        # shape is unstressed, and contact forces at t = 0 are left out
+        a0 = np.zeros((n, 3))
+        if scene.gravity:
+            a0 += GRAVITY
+        a0 += nbc_accelerations(model, 0.0)
+        a0[model.kinematic_mask_at(0.0)] = 0.0
         self.state = State(model.initial_positions.copy(), model.initial_velocities.copy(),
-                           np.zeros((n, 3)), 0, kappa0)
+                           a0, 0, kappa0)
         self._set_kappa(kappa0)
         self.check_initial_state()
 

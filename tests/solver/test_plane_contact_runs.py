@@ -41,6 +41,19 @@ def test_free_fall_matches_discrete_backward_euler(tmp_path, cube_mesh):
     np.testing.assert_allclose(sim.state.v[:, 1], -9.80665 * n * H, rtol=1e-9)
 
 
+def test_free_fall_with_newmark_is_exact_for_constant_acceleration(tmp_path, cube_mesh):
+    # Newmark with γ = ½ integrates a constant acceleration exactly: x = x₀ + ½ g t²
+    sim = _simulation(tmp_path, cube_mesh, "timeIntegration NM 0.25 0.5\n")
+    x0 = sim.state.x.copy()
+    n = 30
+    for _ in range(n):
+        assert sim.step()["result"].converged
+    t = n * H
+    expected = x0 + 0.5 * np.array([0.0, -9.80665, 0.0]) * t * t
+    np.testing.assert_allclose(sim.state.x, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+    np.testing.assert_allclose(sim.state.v[:, 1], -9.80665 * t, rtol=1e-9)
+
+
 def _drop_and_rest(sim, signed_distance, normal, steps_to_rest=150, steps_at_rest=200):
     """Every Newton iterate stays strictly on the positive side; the body comes to rest
     along the normal with its lowest vertex within d̂ and stays there. (Without friction a
