@@ -36,7 +36,16 @@ Layout: x (n, 3), tets (m, 4) int64, Dm_inv (m, 3, 3), volumes (m,), lame (m, 2)
 Gradients are flat (3n,) with DOF 3i + a. Hessians are COO triplets with exactly 144 entries
 per tet at offset 144·e, row-major over the local DOFs 3·v + a (v = 0..3 the tet's vertices).
 The NH gradient and Hessian are NaN for an element with J ≤ 0 (its energy is +∞; the line
-search bound ``max_step_no_inversion`` keeps the solver away from there).
+search bound ``max_step_no_inversion`` keeps the solver away from there). FCR is finite for
+inverted elements but not smooth where σ₁ + σ₂ = 0 (the rotation of F jumps there); its
+twist eigenvalue −4μ/(σ₁ + σ₂) is evaluated with the sum floored at 1e-12.
+
+Step bound (the original IPC's rule): ``max_step_no_inversion(x, p, tets, r)`` returns the
+largest α ∈ [0, 1] with det Ds(x + t p) > r · det Ds(x) on [0, α) for every tet. The
+determinant along the line is a cubic in t; its first crossing of r · det Ds(x) is found by
+splitting [0, 1] at the critical points into monotone pieces and bisecting the first piece
+whose end value is ≤ 0, which is immune to vanishing leading coefficients and returns a
+point on the safe side of the root.
 """
 
 from __future__ import annotations
@@ -328,15 +337,15 @@ def _sigma_hessian(s, mu, lam, model, A, twist, flip):
             flip[k] = mu + m / (s[i] * s[j])
         return
     for k in range(3):
-        i, j, l = _pair(k)
-        # ∂²Ψ/∂σᵢ² = 2μ + λ (σⱼσₖ)²
+        i, j, l = _pair(k)  # l: the index the pair (i, j) leaves out
+        # ∂²Ψ/∂σₗ² = 2μ + λ (σᵢσⱼ)²
         A[l, l] = 2.0 * mu + lam * (s[i] * s[j]) ** 2
-        # ∂²Ψ/∂σᵢ∂σⱼ = λ σₖ (2J − 1)
+        # ∂²Ψ/∂σᵢ∂σⱼ = λ σₗ (2J − 1)
         A[i, j] = lam * s[l] * (2.0 * J - 1.0)
         A[j, i] = A[i, j]
-        # (ψᵢ + ψⱼ)/(σᵢ + σⱼ) = 2μ − 4μ/(σᵢ + σⱼ) + λ (J − 1) σₖ
+        # (ψᵢ + ψⱼ)/(σᵢ + σⱼ) = 2μ − 4μ/(σᵢ + σⱼ) + λ (J − 1) σₗ
         twist[k] = 2.0 * mu - 4.0 * mu / max(s[i] + s[j], _MIN_PAIR_SUM) + lam * (J - 1.0) * s[l]
-        # (ψᵢ − ψⱼ)/(σᵢ − σⱼ) = 2μ − λ (J − 1) σₖ
+        # (ψᵢ − ψⱼ)/(σᵢ − σⱼ) = 2μ − λ (J − 1) σₗ
         flip[k] = 2.0 * mu - lam * (J - 1.0) * s[l]
 
 
@@ -410,7 +419,9 @@ def _tet_hessian(F, Dm_inv_e, vol, mu, lam, model, project_psd, H, S):
                 continue
             for a in range(3):
                 for c in range(3):
-                    G[a, c] = Wq[0, k] * U[a, 0] * Wd[c, 0] + Wq[1, k] * U[a, 1] * Wd[c, 1] + Wq[2, k] * U[a, 2] * Wd[c, 2]
+                    G[a, c] = (
+                        Wq[0, k] * U[a, 0] * Wd[c, 0] + Wq[1, k] * U[a, 1] * Wd[c, 1] + Wq[2, k] * U[a, 2] * Wd[c, 2]
+                    )
             _mode_vector(G, g)
             _add_mode(H, vol * w[k], g)
     else:

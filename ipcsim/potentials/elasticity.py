@@ -52,24 +52,27 @@ class Elasticity:
         self.energy = "NH" if _MODELS[key] == kern.NEO_HOOKEAN else "FCR"
         self.model = _MODELS[key]
         self.n_vertices = int(n_vertices)
-        self.tets = np.ascontiguousarray(tets, dtype=np.int64).reshape(-1, 4)
+        # private writeable C-contiguous copies: the Model's arrays are read-only, and numba
+        # compiles a separate specialisation of every kernel for read-only arguments
+        self.tets = np.array(tets, dtype=np.int64, order="C", copy=True).reshape(-1, 4)
         m = len(self.tets)
-        self.Dm_inv = np.ascontiguousarray(Dm_inv, dtype=np.float64).reshape(m, 3, 3)
-        self.volumes = np.ascontiguousarray(volumes, dtype=np.float64).reshape(m)
-        self.lame = np.ascontiguousarray(np.broadcast_to(np.asarray(lame, dtype=np.float64), (m, 2)))
+        self.Dm_inv = np.array(Dm_inv, dtype=np.float64, order="C", copy=True).reshape(m, 3, 3)
+        self.volumes = np.array(volumes, dtype=np.float64, order="C", copy=True).reshape(m)
+        self.lame = np.array(np.broadcast_to(np.asarray(lame, dtype=np.float64), (m, 2)), order="C", copy=True)
         if m and (self.tets.min() < 0 or self.tets.max() >= self.n_vertices):
             raise ValueError("tet vertex index out of range")
         if not (0.0 <= min_volume_ratio < 1.0):
             raise ValueError("min_volume_ratio must lie in [0, 1)")
         self.min_volume_ratio = float(min_volume_ratio)
-        # the inputs stay writeable: numba compiles a separate specialisation for read-only
-        # arrays. The Hessian pattern never changes and is shared by every Triplets returned.
+        # the Hessian pattern never changes and is shared (read-only) by every Triplets returned
         rows, cols = kern.tet_hessian_pattern(self.tets)
         self._rows = _frozen(rows)
         self._cols = _frozen(cols)
 
     def _positions(self, x) -> np.ndarray:
         x = np.ascontiguousarray(x, dtype=np.float64).reshape(-1, 3)
+        if not x.flags.writeable:  # see __init__: keep one numba specialisation
+            x = x.copy()
         if len(x) != self.n_vertices:
             raise ValueError(f"expected {self.n_vertices} vertices, got {len(x)}")
         return x
@@ -93,4 +96,5 @@ class Elasticity:
     def max_step(self, x, p) -> float:
         if self.model != kern.NEO_HOOKEAN or len(self.tets) == 0:
             return 1.0
-        return float(kern.max_step_no_inversion(self._positions(x), self._positions(p), self.tets, self.min_volume_ratio))
+        alpha = kern.max_step_no_inversion(self._positions(x), self._positions(p), self.tets, self.min_volume_ratio)
+        return float(alpha)

@@ -159,3 +159,23 @@ def test_projected_newton_returns_to_rest(energy):
     edges = np.array([(a, b) for t in el.tets for a, b in itertools.combinations(t, 2)])
     np.testing.assert_allclose(np.linalg.norm(x[edges[:, 0]] - x[edges[:, 1]], axis=1),
                                np.linalg.norm(X[edges[:, 0]] - X[edges[:, 1]], axis=1), rtol=1e-5)
+
+
+def test_read_only_model_arrays_are_accepted():
+    """The Model hands over read-only arrays; results equal those from writeable ones."""
+    X, tets, Dm_inv, vol = box(n=1)
+    x = squash(X, np.random.default_rng(7), (1.2, 0.9, 0.8))
+    arrays = [tets.copy(), Dm_inv.copy(), vol.copy(), np.tile([1.0, 2.0], (len(tets), 1)), x.copy()]
+    for a in arrays:
+        a.flags.writeable = False
+    ro = Elasticity(*arrays[:4], "NH", len(X))
+    rw = Elasticity(tets, Dm_inv, vol, (1.0, 2.0), "NH", len(X))
+    assert ro.value(arrays[4]) == rw.value(x)
+    np.testing.assert_array_equal(ro.gradient(arrays[4]), rw.gradient(x))
+    np.testing.assert_array_equal(ro.hessian(arrays[4]).vals, rw.hessian(x).vals)
+    assert ro.max_step(arrays[4], -x) == rw.max_step(x, -x)
+    from ipcsim.kernels import elasticity as kern
+
+    for f in (kern.elastic_energy, kern.elastic_gradient, kern.elastic_hessian_values, kern.max_step_no_inversion):
+        # no read-only specialisation was compiled
+        assert all(arg.mutable for sig in f.signatures for arg in sig if hasattr(arg, "ndim"))
