@@ -20,6 +20,7 @@ from .potentials.body_force import BodyForce
 from .potentials.damping import Damping
 from .potentials.elasticity import Elasticity
 from .potentials.inertia import Inertia
+from .potentials.base import Triplets
 from .potentials.plane_contact import PlaneContact
 from .solver.incremental import IncrementalPotential, PhaseTimer
 from .solver.integrator import fix_kinematic_velocities, kinetic_energy, make_integrator
@@ -251,8 +252,9 @@ class Simulation:
         elif option == 5:
             # one Jacobi step on the incremental potential from x_n
             g = self.potential.gradient(st.x)
-            H = self.potential.hessian(st.x)
-            diag = np.bincount(H.rows[H.rows == H.cols], weights=H.vals[H.rows == H.cols],
+            H = Triplets.concat(sum(self.potential.hessian(st.x), []))
+            on_diagonal = H.rows == H.cols
+            diag = np.bincount(H.rows[on_diagonal], weights=H.vals[on_diagonal],
                                minlength=st.x.size)
             guess = st.x - (g / np.where(diag > 0, diag, 1.0)).reshape(-1, 3)
         p = guess - st.x

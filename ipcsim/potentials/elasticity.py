@@ -44,6 +44,7 @@ class Elasticity:
     """
 
     name = "elasticity"
+    constant_pattern = True  # same triplet index arrays on every call
 
     def __init__(self, tets, Dm_inv, volumes, lame, energy: str, n_vertices: int, min_volume_ratio: float = 0.1):
         key = str(energy).replace("-", "").replace("_", "").replace(" ", "").upper()

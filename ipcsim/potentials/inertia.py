@@ -9,6 +9,7 @@ from .base import Triplets
 
 class Inertia:
     name = "inertia"
+    constant_pattern = True  # same triplet index arrays on every call
 
     def __init__(self, mass: np.ndarray):
         self.mass = np.asarray(mass, dtype=float)

@@ -15,9 +15,11 @@ class PlaneContact:
     name = "plane contact"
 
     def __init__(self, vertices, origins, normals, dhat: float):
-        self.vertices = np.ascontiguousarray(vertices, dtype=np.int64)
-        self.origins = np.ascontiguousarray(origins, dtype=float).reshape(-1, 3)
-        self.normals = np.ascontiguousarray(normals, dtype=float).reshape(-1, 3)
+        # writable copies: numba compiles a second version of every kernel for the
+        # model's read-only arrays
+        self.vertices = np.array(vertices, dtype=np.int64)
+        self.origins = np.array(origins, dtype=float).reshape(-1, 3)
+        self.normals = np.array(normals, dtype=float).reshape(-1, 3)
         self.s_hat = dhat * dhat
         self.kappa = 1.0
 

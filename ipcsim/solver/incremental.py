@@ -63,15 +63,19 @@ class IncrementalPotential:
                     g += w * t.gradient(x)
             return g
 
-    def hessian(self, x) -> Triplets:
+    def hessian(self, x) -> tuple[list[Triplets], list[Triplets]]:
+        """Weighted PSD triplets of every term, split into terms whose sparsity pattern
+        never changes (``constant_pattern``) and the rest (contact)."""
         with self.timer("energy"):
-            parts = []
+            static, dynamic = [], []
             for w, t in self.terms:
                 if w == 0.0:
                     continue
                 h = t.hessian(x)
-                parts.append(h if w == 1.0 else Triplets(h.rows, h.cols, w * h.vals))
-            return Triplets.concat(parts)
+                if w != 1.0:
+                    h = Triplets(h.rows, h.cols, w * h.vals)
+                (static if getattr(t, "constant_pattern", False) else dynamic).append(h)
+            return static, dynamic
 
     def max_step(self, x, p) -> float:
         """Largest feasible step fraction: CCD of contact terms, inversion bound of NH."""

@@ -20,8 +20,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 
+from .assembly import Assembler
 from .incremental import IncrementalPotential
 
 # A prescribed motion counts as complete when ≥ 99.9 % of it is done, as in the original.
@@ -43,6 +43,16 @@ class NewtonSolver:
     def __init__(self, linear_solver, max_iterations: int = 1000):
         self.linear_solver = linear_solver
         self.max_iterations = max_iterations
+        self.assembler = Assembler()
+        self._free = None  # (kinematic mask, DOF -> free index), reused while unchanged
+
+    def _free_index(self, kinematic):
+        if self._free is None or not np.array_equal(self._free[0], kinematic):
+            free_dofs = ~np.repeat(kinematic, 3)
+            index = np.full(free_dofs.size, -1, dtype=np.int64)
+            index[free_dofs] = np.arange(int(free_dofs.sum()))
+            self._free = (kinematic.copy(), index)
+        return self._free[1]
 
     def solve(self, potential: IncrementalPotential, x: np.ndarray, kinematic: np.ndarray,
               target: np.ndarray, tol: float, before_iteration=None, after_iteration=None):
@@ -58,9 +68,7 @@ class NewtonSolver:
         kin_dofs = np.repeat(kinematic, 3)
         free_dofs = ~kin_dofs
         n_free = int(free_dofs.sum())
-        # DOF -> index among free DOFs (−1 for kinematic ones)
-        free_index = np.full(x.size, -1, dtype=np.int64)
-        free_index[free_dofs] = np.arange(n_free)
+        free_index = self._free_index(kinematic)  # DOF -> free DOF number, −1 if kinematic
         target_flat = target.reshape(-1)
         prescribed = np.abs(target_flat[kin_dofs] - x.reshape(-1)[kin_dofs]).max(initial=0.0)
         result = NewtonResult(kinematic_complete=prescribed == 0.0)
@@ -70,7 +78,7 @@ class NewtonSolver:
             if before_iteration is not None and before_iteration(x):
                 energy = None  # the potential itself changed (κ)
             g = potential.gradient(x)
-            H = potential.hessian(x)
+            static, dynamic = potential.hessian(x)
             p = np.zeros(x.size)
             p_kin = target_flat[kin_dofs] - x.reshape(-1)[kin_dofs]
             remaining = np.abs(p_kin).max(initial=0.0)
@@ -81,14 +89,8 @@ class NewtonSolver:
             p[kin_dofs] = p_kin
 
             with timer("assembly"):
-                rf, cf = free_index[H.rows], free_index[H.cols]
-                ff = (rf >= 0) & (cf >= 0)
-                rhs = -g[free_dofs]
-                if remaining > 0.0:
-                    fk = (rf >= 0) & (cf < 0)
-                    rhs -= np.bincount(rf[fk], weights=H.vals[fk] * p[H.cols[fk]],
-                                       minlength=n_free)
-                A = sp.csc_matrix((H.vals[ff], (rf[ff], cf[ff])), shape=(n_free, n_free))
+                A, coupling = self.assembler.assemble(static, dynamic, free_index, n_free, p)
+                rhs = -g[free_dofs] - coupling
             with timer("solve"):
                 p[free_dofs] = self.linear_solver.solve(A, rhs) if n_free else 0.0
 

@@ -9,6 +9,7 @@ import pytest
 
 from ipcsim.model.builder import build_model
 from ipcsim.model.generate import box_tet_mesh, write_msh
+from ipcsim.potentials.base import Triplets
 from ipcsim.scene import load_scene
 from ipcsim.simulation import Simulation
 
@@ -83,6 +84,7 @@ def test_incremental_potential_gradient_and_psd_hessian(sim):
     g = s.potential.gradient(x)
     fd = _fd_gradient(s.potential.value, x, 1e-7)
     np.testing.assert_allclose(g, fd, rtol=1e-5, atol=1e-6 * np.abs(fd).max())
-    H = s.potential.hessian(x).tocsr(x.size).toarray()
+    static, dynamic = s.potential.hessian(x)
+    H = Triplets.concat(static + dynamic).tocsr(x.size).toarray()
     assert np.allclose(H, H.T)
     assert np.linalg.eigvalsh(H).min() > 0  # PSD local blocks + mass: positive definite
