@@ -8,6 +8,7 @@ turns them into messages, so a user never sees a Python traceback for a mistake 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 from . import __version__
@@ -83,6 +84,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # output piped into a reader that stopped (`| head`)
+        sys.stderr = open(os.devnull, "w")
+        return 0
 
 
 if __name__ == "__main__":

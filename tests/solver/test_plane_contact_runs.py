@@ -102,3 +102,13 @@ def test_cube_rests_on_a_tilted_half_space(tmp_path, cube_mesh):
     sim = Simulation(build_model(load_scene(scene)))
     # NBC applies to boundary vertices only (as the original); all cube vertices here are.
     _drop_and_rest(sim, lambda x: x @ n, n)
+
+
+@pytest.mark.parametrize("option", [0, 1, 2, 3, 4, 5])
+def test_every_warm_start_reaches_the_same_step(tmp_path, cube_mesh, option):
+    """The warm start only changes where Newton starts, not where it ends."""
+    sims = [_simulation(tmp_path, cube_mesh, f"warmStart {o}\ntol 1\n1e-8\n") for o in (0, option)]
+    for sim in sims:
+        for _ in range(3):
+            assert sim.step()["result"].converged
+    np.testing.assert_allclose(sims[1].state.x, sims[0].state.x, rtol=0, atol=1e-8)
