@@ -37,3 +37,19 @@ def barrier_second_derivative(s, s_hat):
         return 0.0
     r = s - s_hat
     return -2.0 * np.log(s / s_hat) - 4.0 * r / s + (r / s) ** 2
+
+
+@njit(cache=True)
+def barrier_and_derivatives(s, s_hat):
+    """(b, b', b'') at s in one pass (one logarithm); all three are 0 for s ≥ ŝ.
+    For s ≤ 0 the value is +inf (the derivatives are then meaningless)."""
+    if s >= s_hat:
+        return 0.0, 0.0, 0.0
+    if s <= 0.0:
+        return np.inf, -np.inf, np.inf
+    r = s - s_hat
+    lg = np.log(s / s_hat)
+    b = -r * r * lg  # b = −(s − ŝ)² ln(s/ŝ)
+    db = -2.0 * r * lg - r * r / s  # b' = −2 (s − ŝ) ln(s/ŝ) − (s − ŝ)²/s
+    d2b = -2.0 * lg - 4.0 * r / s + (r / s) ** 2  # b'' = −2 ln(s/ŝ) − 4 (s − ŝ)/s + (s − ŝ)²/s²
+    return b, db, d2b

@@ -1,0 +1,362 @@
+"""Batched IPC barrier over candidate contact pairs (point-triangle and edge-edge).
+
+    B(x) = Σ_{PT pairs, d² < ŝ}  κ b(d², ŝ)  +  Σ_{EE pairs, d² < ŝ}  κ m(x) b(d², ŝ)
+
+with b(s, ŝ) = −(s − ŝ)² ln(s/ŝ), ŝ = d̂², d² the pair's squared distance to its closest
+feature (distance type chosen at x, ipctk's AUTO rule) and m the edge-edge mollifier
+(kernels/mollifier.py, ε from rest positions, passed in as ``ee_eps_x``).
+
+No deduplication: ipctk merges candidates whose closest features coincide into one
+collision with weight = multiplicity; a plain sum over all candidate pairs gives the same
+value, gradient and (PSD-clamped, per-stencil) Hessian, since merged stencils are
+identical and proj(w H) = w proj(H) for w > 0.
+
+Inputs: x (n, 3) float64 positions, pt_pairs (k, 4) int64 rows (p, t0, t1, t2),
+ee_pairs (j, 4) int64 rows (ea0, ea1, eb0, eb1), ee_eps_x (j,), s_hat = d̂², kappa.
+Global DOF of vertex i, axis a is 3i + a.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from ipcsim.kernels.barrier import barrier, barrier_and_derivatives
+from ipcsim.kernels.distance import (
+    EE_FEATURES,
+    PT_FEATURES,
+    edge_edge_distance_sq,
+    edge_edge_distance_sq_gradient,
+    edge_edge_distance_sq_hessian,
+    edge_edge_distance_type,
+    point_triangle_distance_sq,
+    point_triangle_distance_sq_gradient,
+    point_triangle_distance_sq_hessian,
+    point_triangle_distance_type,
+)
+from ipcsim.kernels.linalg import project_psd
+from ipcsim.kernels.mollifier import (
+    edge_edge_cross_sq,
+    edge_edge_cross_sq_gradient,
+    edge_edge_cross_sq_hessian,
+    mollifier_scalar,
+    mollifier_scalar_first_derivative,
+    mollifier_scalar_second_derivative,
+)
+
+HESSIAN_BLOCK = 144  # triplets per active pair (12 x 12 local Hessian)
+
+
+# =========================================================================================
+# One pair (12-DOF stencil). V is the (4, 3) array of the pair's vertices, dtype its
+# distance type; every function returns 0 / zeros for an inactive pair (d² ≥ ŝ).
+# =========================================================================================
+
+@njit(cache=True, error_model="numpy")
+def point_triangle_barrier(V, dtype, s_hat, kappa):
+    # κ b(d²)
+    d = point_triangle_distance_sq(V[0], V[1], V[2], V[3], dtype)
+    if d >= s_hat:
+        return 0.0
+    return kappa * barrier(d, s_hat)
+
+
+@njit(cache=True, error_model="numpy")
+def point_triangle_barrier_gradient(V, dtype, s_hat, kappa):
+    # ∇(κb) = κ b' ∇d
+    d = point_triangle_distance_sq(V[0], V[1], V[2], V[3], dtype)
+    if d >= s_hat:
+        return np.zeros(12)
+    g = point_triangle_distance_sq_gradient(V[0], V[1], V[2], V[3], dtype)
+    _, db, _ = barrier_and_derivatives(d, s_hat)
+    for i in range(12):
+        g[i] *= kappa * db
+    return g
+
+
+@njit(cache=True, error_model="numpy")
+def point_triangle_barrier_hessian(V, dtype, s_hat, kappa):
+    # ∇²(κb) = κ (b' ∇²d + b'' ∇d ∇dᵀ)
+    d = point_triangle_distance_sq(V[0], V[1], V[2], V[3], dtype)
+    if d >= s_hat:
+        return np.zeros((12, 12))
+    _, db, d2b = barrier_and_derivatives(d, s_hat)
+    gd = point_triangle_distance_sq_gradient(V[0], V[1], V[2], V[3], dtype)
+    H = point_triangle_distance_sq_hessian(V[0], V[1], V[2], V[3], dtype)
+    for i in range(12):
+        for j in range(12):
+            H[i, j] = kappa * (db * H[i, j] + d2b * gd[i] * gd[j])
+    return H
+
+
+@njit(cache=True, error_model="numpy")
+def edge_edge_barrier(V, dtype, eps_x, s_hat, kappa):
+    # κ m b(d²)
+    d = edge_edge_distance_sq(V[0], V[1], V[2], V[3], dtype)
+    if d >= s_hat:
+        return 0.0
+    m = mollifier_scalar(edge_edge_cross_sq(V[0], V[1], V[2], V[3]), eps_x)
+    return kappa * m * barrier(d, s_hat)
+
+
+@njit(cache=True, error_model="numpy")
+def edge_edge_barrier_gradient(V, dtype, eps_x, s_hat, kappa):
+    # ∇(κmb) = κ (m b' ∇d + b ∇m),  ∇m = m'(c) ∇c
+    d = edge_edge_distance_sq(V[0], V[1], V[2], V[3], dtype)
+    if d >= s_hat:
+        return np.zeros(12)
+    b, db, _ = barrier_and_derivatives(d, s_hat)
+    g = edge_edge_distance_sq_gradient(V[0], V[1], V[2], V[3], dtype)
+    c = edge_edge_cross_sq(V[0], V[1], V[2], V[3])
+    m = mollifier_scalar(c, eps_x)
+    for i in range(12):
+        g[i] *= kappa * m * db
+    if c < eps_x:  # else m ≡ 1, ∇m = 0
+        gc = edge_edge_cross_sq_gradient(V[0], V[1], V[2], V[3])
+        dm = mollifier_scalar_first_derivative(c, eps_x)
+        for i in range(12):
+            g[i] += kappa * b * dm * gc[i]
+    return g
+
+
+@njit(cache=True, error_model="numpy")
+def edge_edge_barrier_hessian(V, dtype, eps_x, s_hat, kappa):
+    # ∇²(κmb) = κ [ m (b' ∇²d + b'' ∇d ∇dᵀ) + b ∇²m + b' (∇m ∇dᵀ + ∇d ∇mᵀ) ]
+    # ∇m = m' ∇c,  ∇²m = m' ∇²c + m'' ∇c ∇cᵀ   (c = |(ea1 − ea0)×(eb1 − eb0)|²)
+    d = edge_edge_distance_sq(V[0], V[1], V[2], V[3], dtype)
+    if d >= s_hat:
+        return np.zeros((12, 12))
+    b, db, d2b = barrier_and_derivatives(d, s_hat)
+    gd = edge_edge_distance_sq_gradient(V[0], V[1], V[2], V[3], dtype)
+    H = edge_edge_distance_sq_hessian(V[0], V[1], V[2], V[3], dtype)
+    c = edge_edge_cross_sq(V[0], V[1], V[2], V[3])
+    m = mollifier_scalar(c, eps_x)
+    for i in range(12):
+        for j in range(12):
+            H[i, j] = m * (db * H[i, j] + d2b * gd[i] * gd[j])
+    if c < eps_x:  # else m ≡ 1 and its derivatives vanish
+        gc = edge_edge_cross_sq_gradient(V[0], V[1], V[2], V[3])
+        Hc = edge_edge_cross_sq_hessian(V[0], V[1], V[2], V[3])
+        dm = mollifier_scalar_first_derivative(c, eps_x)
+        d2m = mollifier_scalar_second_derivative(c, eps_x)
+        for i in range(12):
+            for j in range(12):
+                Hm = dm * Hc[i, j] + d2m * gc[i] * gc[j]
+                H[i, j] += b * Hm + db * dm * (gc[i] * gd[j] + gd[i] * gc[j])
+    for i in range(12):
+        for j in range(12):
+            H[i, j] *= kappa
+    return H
+
+
+@njit(cache=True, error_model="numpy")
+def _gather(x, pair):
+    V = np.empty((4, 3))
+    for k in range(4):
+        for a in range(3):
+            V[k, a] = x[pair[k], a]
+    return V
+
+
+# --- one pair of the global arrays (keeps the parallel loop bodies small) -----------------
+
+@njit(cache=True, error_model="numpy")
+def _pt_classify(x, pair):
+    V = _gather(x, pair)
+    t = point_triangle_distance_type(V[0], V[1], V[2], V[3])
+    return t, point_triangle_distance_sq(V[0], V[1], V[2], V[3], t)
+
+
+@njit(cache=True, error_model="numpy")
+def _ee_classify(x, pair):
+    V = _gather(x, pair)
+    t = edge_edge_distance_type(V[0], V[1], V[2], V[3])
+    return t, edge_edge_distance_sq(V[0], V[1], V[2], V[3], t)
+
+
+@njit(cache=True, error_model="numpy")
+def _pt_value_at(x, pair, s_hat, kappa):
+    V = _gather(x, pair)
+    return point_triangle_barrier(V, point_triangle_distance_type(V[0], V[1], V[2], V[3]),
+                                  s_hat, kappa)
+
+
+@njit(cache=True, error_model="numpy")
+def _ee_value_at(x, pair, eps_x, s_hat, kappa):
+    V = _gather(x, pair)
+    return edge_edge_barrier(V, edge_edge_distance_type(V[0], V[1], V[2], V[3]),
+                             eps_x, s_hat, kappa)
+
+
+@njit(cache=True, error_model="numpy")
+def _pt_gradient_at(x, pair, s_hat, kappa):
+    V = _gather(x, pair)
+    return point_triangle_barrier_gradient(
+        V, point_triangle_distance_type(V[0], V[1], V[2], V[3]), s_hat, kappa)
+
+
+@njit(cache=True, error_model="numpy")
+def _ee_gradient_at(x, pair, eps_x, s_hat, kappa):
+    V = _gather(x, pair)
+    return edge_edge_barrier_gradient(
+        V, edge_edge_distance_type(V[0], V[1], V[2], V[3]), eps_x, s_hat, kappa)
+
+
+@njit(cache=True, error_model="numpy")
+def _project_psd_on(H, feature):
+    """project_psd(H) for a 12 x 12 H that is zero outside the vertices named in `feature`
+    (a *_FEATURES row): only that 6/9/12 block is decomposed (eigh costs ~n³)."""
+    nv = 0
+    for k in range(1, 5):
+        nv += feature[k] >= 0
+    if nv == 4:
+        return project_psd(H)
+    n = 3 * nv
+    dof = np.empty(n, dtype=np.int64)
+    for k in range(nv):
+        for a in range(3):
+            dof[3 * k + a] = 3 * feature[1 + k] + a
+    sub = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            sub[i, j] = H[dof[i], dof[j]]
+    P = project_psd(sub)
+    out = np.zeros((12, 12))
+    for i in range(n):
+        for j in range(n):
+            out[dof[i], dof[j]] = P[i, j]
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def _pt_hessian_into(x, pair, s_hat, kappa, project, rows, cols, vals, base):
+    V = _gather(x, pair)
+    t = point_triangle_distance_type(V[0], V[1], V[2], V[3])
+    H = point_triangle_barrier_hessian(V, t, s_hat, kappa)
+    if project:
+        H = _project_psd_on(H, PT_FEATURES[t])
+    _write_block(rows, cols, vals, base, pair, H)
+
+
+@njit(cache=True, error_model="numpy")
+def _ee_hessian_into(x, pair, eps_x, s_hat, kappa, project, rows, cols, vals, base):
+    V = _gather(x, pair)
+    t = edge_edge_distance_type(V[0], V[1], V[2], V[3])
+    H = edge_edge_barrier_hessian(V, t, eps_x, s_hat, kappa)
+    if project:
+        if edge_edge_cross_sq(V[0], V[1], V[2], V[3]) < eps_x:
+            H = project_psd(H)  # the mollifier couples all four vertices
+        else:
+            H = _project_psd_on(H, EE_FEATURES[t])
+    _write_block(rows, cols, vals, base, pair, H)
+
+
+@njit(cache=True, error_model="numpy")
+def _write_block(rows, cols, vals, base, pair, H):
+    # slot base + 12 r + c  <-  (3 pair[r//3] + r%3, 3 pair[c//3] + c%3, H[r, c])
+    for r in range(12):
+        gr = 3 * pair[r // 3] + r % 3
+        for c in range(12):
+            o = base + 12 * r + c
+            rows[o] = gr
+            cols[o] = 3 * pair[c // 3] + c % 3
+            vals[o] = H[r, c]
+
+
+# =========================================================================================
+# Batched kernels
+# =========================================================================================
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def classify_and_distance(x, pt_pairs, ee_pairs):
+    """Distance type (ipctk enum codes) and squared distance of every candidate pair.
+    Returns (pt_type (k,) int64, pt_d2 (k,), ee_type (j,) int64, ee_d2 (j,)); a pair is
+    active iff d2 < ŝ (strict, as ipctk)."""
+    k = pt_pairs.shape[0]
+    j = ee_pairs.shape[0]
+    pt_type = np.empty(k, dtype=np.int64)
+    pt_d2 = np.empty(k)
+    ee_type = np.empty(j, dtype=np.int64)
+    ee_d2 = np.empty(j)
+    for i in prange(k):
+        pt_type[i], pt_d2[i] = _pt_classify(x, pt_pairs[i])
+    for i in prange(j):
+        ee_type[i], ee_d2[i] = _ee_classify(x, ee_pairs[i])
+    return pt_type, pt_d2, ee_type, ee_d2
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def barrier_value(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa):
+    """Σ κ m b(d², ŝ) over the active pairs (m ≡ 1 for point-triangle).
+    Per-pair terms go to an array first so that the sum is deterministic."""
+    k = pt_pairs.shape[0]
+    j = ee_pairs.shape[0]
+    terms = np.empty(k + j)
+    for i in prange(k):
+        terms[i] = _pt_value_at(x, pt_pairs[i], s_hat, kappa)
+    for i in prange(j):
+        terms[k + i] = _ee_value_at(x, ee_pairs[i], ee_eps_x[i], s_hat, kappa)
+    return terms.sum()
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def _local_gradients(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa):
+    # (k + j, 12) local gradients (zero rows for inactive pairs); row i written by i only
+    k = pt_pairs.shape[0]
+    j = ee_pairs.shape[0]
+    G = np.empty((k + j, 12))
+    for i in prange(k):
+        g = _pt_gradient_at(x, pt_pairs[i], s_hat, kappa)
+        for a in range(12):
+            G[i, a] = g[a]
+    for i in prange(j):
+        g = _ee_gradient_at(x, ee_pairs[i], ee_eps_x[i], s_hat, kappa)
+        for a in range(12):
+            G[k + i, a] = g[a]
+    return G
+
+
+@njit(cache=True, error_model="numpy")
+def barrier_gradient(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa):
+    """∇B as a flat (3n,) vector. Local gradients are computed in parallel, then scattered
+    serially (race-free; the scatter is O(12 (k + j)) additions)."""
+    G = _local_gradients(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa)
+    k = pt_pairs.shape[0]
+    grad = np.zeros(3 * x.shape[0])
+    for i in range(G.shape[0]):
+        pair = pt_pairs[i] if i < k else ee_pairs[i - k]
+        for v in range(4):
+            for a in range(3):
+                grad[3 * pair[v] + a] += G[i, 3 * v + a]
+    return grad
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def barrier_hessian_triplets(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa, project):
+    """∇²B as COO triplets (rows, cols, vals), int64/int64/float64.
+
+    Compacted: only ACTIVE pairs (d² < ŝ) appear, 144 entries each, active point-triangle
+    pairs first (in input order), then active edge-edge pairs; active pair number a owns
+    the slots [144 a, 144 (a + 1)), row-major over its 12 x 12 local Hessian, so the
+    parallel writes never overlap. With ``project`` each local Hessian is clamped to PSD
+    (negative eigenvalues -> 0) before it is written; only the block of the vertices
+    the pair's closest feature involves is decomposed (all four when mollified). Rows and columns of stencil vertices
+    that the closest feature does not involve hold zeros. Duplicate (row, col) entries are
+    to be summed (Triplets.tocsr)."""
+    _, pt_d2, _, ee_d2 = classify_and_distance(x, pt_pairs, ee_pairs)
+    pt_act = np.flatnonzero(pt_d2 < s_hat)
+    ee_act = np.flatnonzero(ee_d2 < s_hat)
+    na = pt_act.shape[0]
+    nb = ee_act.shape[0]
+    total = HESSIAN_BLOCK * (na + nb)
+    rows = np.empty(total, dtype=np.int64)
+    cols = np.empty(total, dtype=np.int64)
+    vals = np.empty(total)
+    for a in prange(na):
+        _pt_hessian_into(x, pt_pairs[pt_act[a]], s_hat, kappa, project,
+                         rows, cols, vals, HESSIAN_BLOCK * a)
+    for a in prange(nb):
+        i = ee_act[a]
+        _ee_hessian_into(x, ee_pairs[i], ee_eps_x[i], s_hat, kappa, project,
+                         rows, cols, vals, HESSIAN_BLOCK * (na + a))
+    return rows, cols, vals
