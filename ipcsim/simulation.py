@@ -14,12 +14,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from .contact.stiffness import balanced_kappa, kappa_bounds, should_double
-from .errors import SolverError, UnsupportedSceneError
+from .errors import InfeasibleStartError, SolverError, UnsupportedSceneError
 from .model.kinematics import kinematic_targets, nbc_accelerations
 from .potentials.body_force import BodyForce
 from .potentials.damping import Damping
 from .potentials.elasticity import Elasticity
 from .potentials.inertia import Inertia
+from .potentials.mesh_contact import MeshContact
 from .potentials.base import Triplets
 from .potentials.plane_contact import PlaneContact
 from .solver.incremental import IncrementalPotential, PhaseTimer
@@ -46,9 +47,6 @@ class State:
 def unsupported_capabilities(model) -> list[str]:
     """Capabilities the scene needs that this version cannot simulate yet."""
     missing = []
-    if model.needs_mesh_contact:
-        missing.append("mesh-mesh contact (the scene has self collision on; "
-                       "`selfCollisionOff` turns it off)")
     if model.needs_friction:
         missing.append("friction (some friction coefficient is > 0)")
     return missing
@@ -88,11 +86,14 @@ class Simulation:
         if damping_stiff > 0 and self.elasticity is not None:
             self.damping = Damping(damping_stiff, self.h, fw)
             terms.append([1.0, self.damping])
-        self.contacts = []
-        if len(model.plane_normals):
-            self.contacts.append(PlaneContact(model.plane_contact_vertices, model.plane_origins,
-                                              model.plane_normals, model.dhat))
-            terms.extend([1.0, c] for c in self.contacts)
+        self.plane_contact = self.mesh_contact = None
+        if model.needs_plane_contact:
+            self.plane_contact = PlaneContact(model.plane_contact_vertices, model.plane_origins,
+                                              model.plane_normals, model.dhat)
+        if model.needs_mesh_contact:
+            self.mesh_contact = MeshContact(model, model.rest_positions, model.dhat)
+        self.contacts = [c for c in (self.plane_contact, self.mesh_contact) if c is not None]
+        terms.extend([1.0, c] for c in self.contacts)
         self.potential = IncrementalPotential(terms, self.timer)
 
         tet_vertices = np.unique(model.tets) if len(model.tets) else np.arange(n)
@@ -118,24 +119,64 @@ class Simulation:
         for c in self.contacts:
             c.kappa = kappa
 
-    def contact_statistics(self, x) -> tuple[int, float]:
-        count, dmin = 0, np.inf
-        for c in self.contacts:
-            k, d = c.statistics(x)
-            count += k
-            dmin = min(dmin, d)
-        return count, dmin
+    def contact_statistics(self, x) -> dict:
+        """Active contacts by kind and the smallest distance (signed for planes)."""
+        stats = {"contacts_plane": 0, "contacts_point_triangle": 0, "contacts_edge_edge": 0,
+                 "min_distance": np.inf}
+        if self.plane_contact is not None:
+            count, dmin = self.plane_contact.statistics(x)
+            stats.update(contacts_plane=count, min_distance=min(stats["min_distance"], dmin))
+        if self.mesh_contact is not None:
+            n_pt, n_ee, dmin = self.mesh_contact.statistics(x)
+            stats.update(contacts_point_triangle=n_pt, contacts_edge_edge=n_ee,
+                         min_distance=min(stats["min_distance"], dmin))
+        stats["contacts_total"] = (stats["contacts_plane"] + stats["contacts_point_triangle"]
+                                   + stats["contacts_edge_edge"])
+        return stats
 
     def check_initial_state(self):
         x = self.state.x
-        for c in self.contacts:
-            if not np.isfinite(c.value(x)):
-                raise UnsupportedSceneError(
-                    "initial state is infeasible: a surface vertex is on or below a plane "
-                    "(ground/halfSpace); move the shapes or the plane")
+        if self.plane_contact is not None and not np.isfinite(self.plane_contact.value(x)):
+            raise InfeasibleStartError(
+                "initial state is infeasible: a surface vertex is on or below a plane "
+                "(ground/halfSpace); move the shapes or the plane")
         if self.elasticity is not None and self.model.scene.energy == "NH":
             if not np.isfinite(self.elasticity.value(x)):
-                raise UnsupportedSceneError("initial state has an inverted tetrahedron")
+                raise InfeasibleStartError("initial state has an inverted tetrahedron")
+        if self.mesh_contact is not None:
+            self._check_initial_mesh_contact(x)
+
+    def _check_initial_mesh_contact(self, x):
+        """IPC starts from a strictly positive distance: intersecting or touching surfaces
+        at t = 0 are an input error that names the two shapes."""
+        from .contact.intersection import find_intersections
+        from .kernels.contact_barrier import classify_and_distance
+
+        mc, model = self.mesh_contact, self.model
+        pt, ee, _ = mc.update(x)
+        _, pt_d2, _, ee_d2 = classify_and_distance(x, pt, ee)
+        touching = [(int(pt[i, 0]), int(pt[i, 1])) for i in np.flatnonzero(pt_d2 <= 0.0)[:1]]
+        touching += [(int(ee[i, 0]), int(ee[i, 2])) for i in np.flatnonzero(ee_d2 <= 0.0)[:1]]
+        body = mc.body if not mc.self_collision else None
+        pairs = find_intersections(
+            x, mc.edges, mc.triangles,
+            None if body is None else body[mc.edges[:, 0]],
+            None if body is None else body[mc.triangles[:, 0]])
+        if len(pairs):
+            kin = mc.kinematic
+            moving = ~(kin[mc.edges[pairs[:, 0]]].all(axis=1)
+                       & kin[mc.triangles[pairs[:, 1]]].all(axis=1))
+            pairs = pairs[moving]
+        crossing = [(int(mc.edges[e, 0]), int(mc.triangles[t, 0])) for e, t in pairs[:1]]
+        for what, found in (("intersect or touch", crossing), ("touch", touching)):
+            if found:
+                a, b = (int(model.vertex_shape[v]) for v in found[0])
+                names = model.shape_names
+                who = (f"shape {a + 1} ({names[a]}) and shape {b + 1} ({names[b]})" if a != b
+                       else f"shape {a + 1} ({names[a]}) and itself")
+                raise InfeasibleStartError(
+                    f"initial state: {who} {what}; IPC needs a positive distance between "
+                    "all surfaces at the start")
 
     def _balance_kappa(self, x):
         """κ = clamp(−g_B·g_E/‖g_B‖², κ_min, κ_max) over free DOFs (contact terms at κ=1)."""
@@ -182,7 +223,10 @@ class Simulation:
             if not self.contacts:
                 return False
             with self.timer("contact_set"):
-                count, dmin = self.contact_statistics(x)
+                if self.mesh_contact is not None:
+                    self.mesh_contact.update(x)
+                stats = self.contact_statistics(x)
+            count, dmin = stats["contacts_total"], stats["min_distance"]
             if fixed_kappa:
                 return False
             kappa = st.kappa
@@ -196,9 +240,7 @@ class Simulation:
             return st.kappa != kappa
 
         def after_iteration(x, info):
-            count, dmin = self.contact_statistics(x)
-            info.update(step=st.step, contacts_plane=count, contacts_total=count,
-                        kappa=st.kappa, min_distance=dmin,
+            info.update(step=st.step, kappa=st.kappa, **self.contact_statistics(x),
                         residual_ratio=info["step_inf_norm"] / tol if tol > 0 else np.nan)
             newton_rows.append(info)
 
@@ -213,16 +255,14 @@ class Simulation:
         st.x, st.v, st.a = x_new, v_new, a_new
         st.step += 1
 
-        count, dmin = self.contact_statistics(x_new)
+        stats = self.contact_statistics(x_new)
         phases = self.timer.reset()
         row = {
             "step": st.step, "time": st.step * h, "dt": h,
             "newton_iterations": result.iterations, "converged": int(result.converged),
             "hit_iteration_cap": int(result.hit_iteration_cap),
             "line_search_min_alpha": result.min_alpha, "kappa": st.kappa,
-            "dhat": model.dhat, "min_distance": dmin,
-            "contacts_plane": count, "contacts_point_triangle": 0, "contacts_edge_edge": 0,
-            "contacts_total": count,
+            "dhat": model.dhat, **stats,
             "energy": self.potential.value(x_new),
             "kinetic_energy": kinetic_energy(model.mass, v_new),
             "elastic_energy": self.elasticity.value(x_new) if self.elasticity else 0.0,

@@ -54,15 +54,11 @@ def test_run_writes_the_output_folder(drop_scene, tmp_path, capsys):
     assert "below a plane" in capsys.readouterr().out
 
 
-NEEDS_MORE = [p for p in example_scripts()
-              if "segMeshes" not in p.parts]
-
-
-@pytest.mark.parametrize("script", NEEDS_MORE, ids=lambda p: p.name)
-def test_examples_needing_mesh_contact_or_friction_are_refused(script, tmp_path, capsys):
+@pytest.mark.parametrize("script", example_scripts(), ids=lambda p: p.name)
+def test_examples_needing_friction_are_refused(script, tmp_path, capsys):
     model = build_model(load_scene(script))
-    if not (model.needs_mesh_contact or model.needs_friction):
-        pytest.skip("runs with plane contact only")
+    if not model.needs_friction:
+        pytest.skip("frictionless: ipcsim simulates it")
     assert main(["run", str(script), "-o", str(tmp_path / "out"), "-q"]) == 2
     err = capsys.readouterr().err
     assert "cannot simulate yet" in err and "Traceback" not in err
