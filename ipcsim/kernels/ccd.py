@@ -120,7 +120,8 @@ def edge_edge_distance_sq(q):
     min over the four endpoint-segment distances, and the line-line distance
     (w·n)² / |n|², n = ea × eb, w = b0 - a0, when the closest points of the two lines,
     s = ((w × eb)·n) / |n|² and u = ((w × ea)·n) / |n|², both lie in [0, 1] (± 1e-9).
-    Parallel segments (n = 0) reach their minimum at an endpoint."""
+    Parallel segments (n = 0) reach their minimum at an endpoint; so do, up to |e|·sin θ,
+    nearly parallel ones (sin θ < 1e-6), whose line-line parameters are unreliable."""
     d = min(_point_segment_distance_sq(q, 0, 2, 3), _point_segment_distance_sq(q, 1, 2, 3),
             _point_segment_distance_sq(q, 2, 0, 1), _point_segment_distance_sq(q, 3, 0, 1))
     ax = q[1, 0] - q[0, 0]
@@ -133,7 +134,12 @@ def edge_edge_distance_sq(q):
     ny = az * bx - ax * bz
     nz = ax * by - ay * bx
     nn = nx * nx + ny * ny + nz * nz
-    if nn > 0.0:
+    aa = ax * ax + ay * ay + az * az
+    bb = bx * bx + by * by + bz * bz
+    # Nearly parallel (sin θ < 1e-6): the closest-point parameters s, u carry errors of
+    # order ε/sin²θ and are meaningless, so only the endpoint distances count; they exceed
+    # the true distance by at most |e|·sin θ, far below CCD's kept gap.
+    if nn > 1e-12 * aa * bb:
         wx = q[2, 0] - q[0, 0]
         wy = q[2, 1] - q[0, 1]
         wz = q[2, 2] - q[0, 2]

@@ -810,3 +810,19 @@ def test_collision_free_step_on_two_boxes():
                                                    ipctk.LBVH(), ipctk.AdditiveCCD())
     print(f"\n[ccd] two boxes: alpha {alpha:.4f}, ipctk AdditiveCCD {a_accd:.4f}")
     assert 0.95 * a_accd <= alpha  # same rule, tighter bound: no more cautious than ipctk's
+
+
+def test_parallel_coplanar_edges_of_a_falling_face_do_not_block_the_step():
+    """Two parallel diagonals of one flat face, moved together by a free-fall step, with
+    round-off in their coordinates: their distance is 0.2/√2, never zero, so the step is free."""
+    from ipcsim.kernels import ccd as kccd
+
+    y = 0.82838363
+    x0 = np.array([[0.2, y, 0.6], [0.4, y, 0.8], [0.4, y, 0.6], [0.6, y, 0.8]])
+    d = np.array([5.55111512e-17, -4.903325e-02, 0.0])
+    x1 = x0 + d
+    x1[3, 0] += 5.55e-17
+    ee = np.array([[0, 1, 2, 3]], dtype=np.int64)
+    pt = np.zeros((0, 4), dtype=np.int64)
+    assert kccd.edge_edge_distance_sq(x0) == pytest.approx(0.02, rel=1e-12)
+    assert kccd.ccd_max_step(x0, x1, pt, ee) == 1.0
