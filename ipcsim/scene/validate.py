@@ -23,7 +23,7 @@ __all__ = ["validate_scene", "LINEAR_SOLVERS", "text_name"]
 
 # Names `linearSolver` / `solver.linear_solver` accept (lower case). The solver maps the
 # original's CHOLMOD/EIGEN/AMGCL onto what is installed; None means "the fastest one".
-LINEAR_SOLVERS = ("cholmod", "scipy", "superlu", "eigen", "amgcl")
+LINEAR_SOLVERS = ("cholmod", "pardiso", "scipy", "superlu", "eigen", "amgcl")
 
 # How the text format names a value, by its TOML key path with indices removed.
 _TEXT_NAMES = {

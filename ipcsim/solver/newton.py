@@ -12,7 +12,9 @@ so no iterate ever intersects or inverts. While prescribed motion remains, the l
 feasible step is taken (the energy of an unfinished constraint is not comparable); once
 the kinematic DOFs sit on their targets, α is halved until the energy decreases.
 
-Stopping rule, as the original: ‖p‖∞ < tol (absolute, tol·l·h) with the motion complete.
+Stopping rule, as the original: ‖p‖∞ < tol (absolute, tol·l·h) with the motion complete;
+the converged direction is still taken (it costs no solve), so a step always moves by at
+least one Newton direction and a slow body does not stall below the tolerance.
 """
 
 from __future__ import annotations
@@ -97,30 +99,31 @@ class NewtonSolver:
             step_norm = np.abs(p[free_dofs]).max(initial=0.0)
             info = {"iteration": it, "step_inf_norm": step_norm, "tolerance": tol,
                     "gradient_norm": float(np.linalg.norm(g[free_dofs]))}
-            if result.kinematic_complete and step_norm < tol:
-                result.converged = True
-                result.iterations = it
-                info["alpha"] = 0.0
-                info["energy"] = potential.value(x) if energy is None else energy
-                if after_iteration is not None:
-                    after_iteration(x, info)
-                return x, result
-
-            alpha = min(1.0, potential.max_step(x, p))
-            if result.kinematic_complete:
-                alpha, failed, energy = self._backtrack(potential, x, p, alpha, energy)
-                result.line_search_failures += failed
-            x_new = x + alpha * p.reshape(-1, 3)
-            if alpha == 1.0 and remaining > 0.0:
-                x_new[kinematic] = target[kinematic]  # land exactly on the targets
-            x = x_new
-            if not result.kinematic_complete:
-                energy = potential.value(x)
-            result.min_alpha = min(result.min_alpha, alpha)
+            converged = result.kinematic_complete and step_norm < tol
+            if converged and step_norm == 0.0:
+                alpha = 0.0  # nothing left to do
+            else:
+                # a converged direction is still taken: it is nearly free (no solve) and,
+                # at a step's first iteration, it is the whole motion of a slow body
+                alpha = min(1.0, potential.max_step(x, p))
+                if result.kinematic_complete:
+                    alpha, failed, energy = self._backtrack(potential, x, p, alpha, energy)
+                    result.line_search_failures += failed
+                x_new = x + alpha * p.reshape(-1, 3)
+                if alpha == 1.0 and remaining > 0.0:
+                    x_new[kinematic] = target[kinematic]  # land exactly on the targets
+                x = x_new
+                if not result.kinematic_complete:
+                    energy = potential.value(x)
+                result.min_alpha = min(result.min_alpha, alpha)
             info["alpha"] = alpha
-            info["energy"] = energy
+            info["energy"] = potential.value(x) if energy is None else energy
             if after_iteration is not None:
                 after_iteration(x, info)
+            if converged:
+                result.converged = True
+                result.iterations = it + 1
+                return x, result
 
         result.iterations = self.max_iterations
         result.hit_iteration_cap = True

@@ -116,7 +116,7 @@ TXT_CASES = [
      "linearVelocity 1 0 0\n", 4, ["takes only the `material` extra"]),
     ("shapeMatrix too big", "shapeMatrix input 1000 1000 1000\nmeshes/cube.msh 0 0 0 0 0 0 1 1 1\n",
      1, ["1000000000 copies"]),
-    ("unknown linear solver", "linearSolver PARDISO\n" + CUBE, 1, ["unknown linear solver"]),
+    ("unknown linear solver", "linearSolver MUMPS\n" + CUBE, 1, ["unknown linear solver"]),
     ("appendStr with two words", "appendStr a b\n" + CUBE, 1, ["unexpected 'b'"]),
 ]
 

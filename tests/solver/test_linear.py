@@ -1,0 +1,204 @@
+"""The sparse SPD solvers of ipcsim.solver.linear: accuracy, symbolic reuse, selection."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from ipcsim.errors import SolverError
+from ipcsim.solver import linear
+from ipcsim.solver.linear import (AUTO_ORDER, SOLVERS, available_solvers,
+                                  group_nested_dissection, make_solver)
+
+AVAILABLE = available_solvers()
+
+
+def block_spd(n_vertices: int, seed: int, extra_pairs: int = 0, scale_seed: int | None = None):
+    """Full symmetric CSC SPD matrix with 3×3 blocks: a random vertex graph (each vertex
+    coupled to ~6 others, like a tet mesh's edges), random dense blocks, and a diagonal that
+    makes it strictly diagonally dominant. ``extra_pairs`` adds couplings (a new pattern);
+    ``scale_seed`` rescales values symmetrically (same pattern, new values)."""
+    rng = np.random.default_rng(seed)
+    i = np.repeat(np.arange(n_vertices), 3)
+    j = (i + rng.integers(1, n_vertices, size=i.size)) % n_vertices  # never i itself
+    if extra_pairs:
+        extra = np.random.default_rng(seed + 1000)
+        i = np.concatenate([i, extra.integers(0, n_vertices, extra_pairs)])
+        j = np.concatenate([j, extra.integers(0, n_vertices, extra_pairs)])
+        keep = i != j
+        i, j = i[keep], j[keep]
+    blocks = rng.standard_normal((i.size, 3, 3))
+    a = np.arange(3)
+    rows = (3 * i[:, None, None] + a[None, :, None]).repeat(3, axis=2).ravel()
+    cols = (3 * j[:, None, None] + a[None, None, :]).repeat(3, axis=1).ravel()
+    R = sp.csc_matrix((blocks.ravel(), (rows, cols)), shape=(3 * n_vertices,) * 2)
+    A = R + R.T
+    diag = np.abs(A).sum(axis=1).A.ravel() + 1.0
+    A = (A + sp.diags(diag)).tocsc()
+    if scale_seed is not None:
+        d = 1.0 + np.random.default_rng(scale_seed).random(A.shape[0])
+        A = sp.diags(d) @ A @ sp.diags(d)
+    A = sp.csc_matrix(A)
+    A.sort_indices()
+    return A
+
+
+def rel_residual(A, x, b):
+    return np.linalg.norm(A @ x - b) / np.linalg.norm(b)
+
+
+def require(name):
+    if name not in AVAILABLE:
+        pytest.skip(f"{name} backend not installed")
+
+
+@pytest.mark.parametrize("name", sorted(SOLVERS))
+@pytest.mark.parametrize("n_vertices", [100, 1000])
+def test_backend_solves_block_spd(name, n_vertices):
+    require(name)
+    A = block_spd(n_vertices, seed=n_vertices)
+    b = np.random.default_rng(1).standard_normal(A.shape[0])
+    solver = make_solver(name)
+    assert solver.name == name
+    x = solver.solve(A, b)
+    assert x.shape == b.shape
+    assert rel_residual(A, x, b) < 1e-10
+    # CSR of a symmetric matrix is read without conversion and gives the same answer
+    assert rel_residual(A, make_solver(name).solve(A.tocsr(), b), b) < 1e-10
+
+
+@pytest.mark.parametrize("name", sorted(SOLVERS))
+def test_symbolic_reuse_same_pattern_then_new_pattern(name, monkeypatch):
+    require(name)
+    solver = make_solver(name)
+    cls = type(solver)
+    analyses = []
+    if hasattr(cls, "_analyse"):
+        original = cls._analyse
+        monkeypatch.setattr(cls, "_analyse", lambda self: (analyses.append(1), original(self)))
+    rng = np.random.default_rng(2)
+    A1 = block_spd(300, seed=3)
+    A2 = block_spd(300, seed=3, scale_seed=4)          # same pattern, new values
+    A3 = block_spd(300, seed=3, extra_pairs=200)       # new pattern, same size
+    A4 = block_spd(250, seed=5)                        # new size
+    assert np.array_equal(A1.indices, A2.indices) and not np.allclose(A1.data, A2.data)
+    assert A3.nnz > A1.nnz
+    for k, (A, reanalysed) in enumerate([(A1, True), (A2, False), (A1, False), (A3, True),
+                                         (A2, True), (A4, True), (A4, False)]):
+        b = rng.standard_normal(A.shape[0])
+        count = len(analyses)
+        x = solver.solve(A, b)
+        assert rel_residual(A, x, b) < 1e-10, f"call {k}"
+        if hasattr(cls, "_analyse"):
+            assert len(analyses) - count == int(reanalysed), f"call {k}"
+
+
+@pytest.mark.parametrize("name", sorted(SOLVERS))
+def test_input_not_mutated_and_non_canonical_input(name):
+    require(name)
+    A = block_spd(120, seed=6)
+    b = np.random.default_rng(7).standard_normal(A.shape[0])
+    data, b0 = A.data.copy(), b.copy()
+    solver = make_solver(name)
+    x = solver.solve(A, b)
+    assert np.array_equal(A.data, data) and np.array_equal(b, b0)
+    # COO with duplicate entries (summed), and CSC with unsorted indices
+    C = A.tocoo()
+    half = C.data / 2
+    dup = sp.coo_matrix((np.concatenate([half, half]), (np.tile(C.row, 2), np.tile(C.col, 2))),
+                        shape=A.shape)
+    assert np.allclose(solver.solve(dup, b), x, rtol=1e-9, atol=1e-12)
+    U = A.copy()
+    for j in range(U.shape[1]):
+        s, e = U.indptr[j], U.indptr[j + 1]
+        U.indices[s:e] = U.indices[s:e][::-1]
+        U.data[s:e] = U.data[s:e][::-1]
+    U.has_sorted_indices = False
+    assert np.allclose(solver.solve(U, b), x, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", sorted(SOLVERS))
+def test_empty_system(name):
+    require(name)
+    assert make_solver(name).solve(sp.csc_matrix((0, 0)), np.zeros(0)).shape == (0,)
+
+
+@pytest.mark.parametrize("name", ["cholmod", "pardiso"])
+def test_indefinite_matrix_raises_solver_error(name):
+    require(name)
+    A = block_spd(50, seed=8)
+    A = sp.csc_matrix(A - sp.diags(np.full(A.shape[0], 2.0 * A.diagonal().max())))
+    with pytest.raises(SolverError):
+        make_solver(name).solve(A, np.ones(A.shape[0]))
+
+
+@pytest.mark.parametrize("name", ["cholmod", "pardiso"])
+def test_missing_diagonal_raises_solver_error(name):
+    require(name)
+    A = block_spd(50, seed=12).tolil()
+    A[7, 7] = 0.0
+    A = A.tocsc()
+    A.eliminate_zeros()
+    assert A.nnz and A[7, 7] == 0
+    with pytest.raises(SolverError):
+        make_solver(name).solve(A, np.ones(A.shape[0]))
+
+
+@pytest.mark.parametrize("ordering", ["amd", "metis"])
+@pytest.mark.parametrize("supernodal", [True, False])
+def test_cholmod_orderings_and_factor_kinds(ordering, supernodal):
+    require("cholmod")
+    if ordering == "metis":
+        pytest.importorskip("pymetis")
+    A = block_spd(400, seed=9)
+    b = np.random.default_rng(10).standard_normal(A.shape[0])
+    solver = linear.CholmodSolver(ordering=ordering, supernodal=supernodal)
+    assert rel_residual(A, solver.solve(A, b), b) < 1e-10
+    with pytest.raises(ValueError):
+        linear.CholmodSolver(ordering="colamd")
+
+
+@pytest.mark.parametrize("n", [2, 3, 299, 300, 301])
+def test_group_nested_dissection_is_a_permutation(n):
+    pytest.importorskip("pymetis")
+    A = block_spd(max(2, (n + 2) // 3), seed=n)[:n, :n].tocsc()
+    perm = group_nested_dissection(A.indptr, A.indices, n)
+    assert perm.dtype == np.int64
+    assert np.array_equal(np.sort(perm), np.arange(n))
+    if n % 3 == 0:  # a vertex's DOFs stay together, in order
+        assert np.all(perm.reshape(-1, 3) - perm.reshape(-1, 3)[:, :1] == np.arange(3))
+
+
+def test_unknown_name_raises():
+    with pytest.raises(ValueError, match="unknown linear solver"):
+        make_solver("umfpack")
+
+
+def test_aliases():
+    assert make_solver("EIGEN").name == "scipy"
+    assert make_solver("superlu").name == "scipy"
+    assert make_solver("AMGCL").name == "scipy"
+    if "cholmod" in AVAILABLE:
+        assert make_solver("CHOLMOD").name == "cholmod"
+
+
+def test_auto_picks_the_first_available():
+    expected = next((n for n in AUTO_ORDER if n in AVAILABLE), "scipy")
+    for name in (None, "auto", "AUTO"):
+        solver = make_solver(name)
+        assert solver.name == expected
+        assert solver.name in AVAILABLE
+    A = block_spd(100, seed=11)
+    b = np.ones(A.shape[0])
+    assert rel_residual(A, make_solver(None).solve(A, b), b) < 1e-10
+
+
+def test_auto_falls_back_when_preferred_backends_are_missing(monkeypatch):
+    def missing():
+        raise ImportError("not installed")
+
+    monkeypatch.setitem(linear.SOLVERS, "cholmod", missing)
+    monkeypatch.setitem(linear.SOLVERS, "pardiso", missing)
+    assert make_solver(None).name == "scipy"
+    assert available_solvers() == ["scipy"]
