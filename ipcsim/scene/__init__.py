@@ -7,10 +7,10 @@ as ``path:line: what is wrong``; warnings are collected in ``SceneSpec.warnings`
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 from ..errors import SceneError
+from ..io.atomic import atomic_write_text
 from .spec import (
     DirichletSpec,
     InitialVelocitySpec,
@@ -94,14 +94,8 @@ def save_scene(spec: SceneSpec, path) -> Path:
     text = format_txt(spec, path) if fmt == "txt" else format_toml(spec, path)
     if not path.parent.is_dir() and str(path.parent) != "":
         raise SceneError(path, None, f"cannot write: folder '{path.parent}' does not exist")
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
     try:
-        with open(tmp, "w", encoding="utf-8", newline="\n") as f:
-            f.write(text)
-        os.replace(tmp, path)
+        atomic_write_text(path, text)
     except OSError as exc:
         raise SceneError(path, None, f"cannot write ({exc.strerror or exc})") from None
-    finally:
-        if tmp.exists():
-            tmp.unlink()
     return path
