@@ -29,7 +29,7 @@ from .solver.linear import make_solver
 from .solver.newton import NewtonSolver
 
 GRAVITY = np.array([0.0, -9.80665, 0.0])
-MAX_NEWTON_ITERATIONS = 500
+MAX_NEWTON_ITERATIONS = 5000  # reported in steps.csv and warned about when hit
 
 
 @dataclass
