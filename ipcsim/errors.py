@@ -50,12 +50,6 @@ class SolverError(IpcsimError):
     exit_status = 3
 
 
-class UnsupportedSceneError(IpcsimError):
-    """The scene needs a capability this version does not have."""
-
-    exit_status = 2
-
-
 class InfeasibleStartError(IpcsimError):
     """The initial state breaks what IPC guarantees (intersecting surfaces, a vertex below
     a plane, an inverted tet), so no step could keep it."""

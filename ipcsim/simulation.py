@@ -9,16 +9,18 @@ that the run command writes to steps.csv and newton.csv.
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from .contact.stiffness import balanced_kappa, kappa_bounds, should_double
-from .errors import InfeasibleStartError, SolverError, UnsupportedSceneError
+from .errors import InfeasibleStartError, SolverError
 from .model.kinematics import kinematic_targets, nbc_accelerations
 from .potentials.body_force import BodyForce
 from .potentials.damping import Damping
 from .potentials.elasticity import Elasticity
+from .potentials.friction import Friction
 from .potentials.inertia import Inertia
 from .potentials.mesh_contact import MeshContact
 from .potentials.base import Triplets
@@ -29,6 +31,7 @@ from .solver.linear import make_solver
 from .solver.newton import NewtonSolver
 
 GRAVITY = np.array([0.0, -9.80665, 0.0])
+FRICTION_ITERATION_CAP = 20  # fricIterAmt <= 0: lagging updates per step at most
 MAX_NEWTON_ITERATIONS = 5000  # reported in steps.csv and warned about when hit
 
 
@@ -44,22 +47,8 @@ class State:
     dx_elastic: np.ndarray | None = None  # previous step's non-inertial displacement
 
 
-def unsupported_capabilities(model) -> list[str]:
-    """Capabilities the scene needs that this version cannot simulate yet."""
-    missing = []
-    if model.needs_friction:
-        missing.append("friction (some friction coefficient is > 0)")
-    return missing
-
-
 class Simulation:
     def __init__(self, model, linear_solver: str | None = None):
-        missing = unsupported_capabilities(model)
-        if missing:
-            raise UnsupportedSceneError(
-                "this scene needs " + " and ".join(missing)
-                + ", which ipcsim cannot simulate yet; refusing to simulate less than the "
-                "scene asks")
         self.model = model
         scene = model.scene
         self.h = scene.dt
@@ -94,6 +83,10 @@ class Simulation:
             self.mesh_contact = MeshContact(model, model.rest_positions, model.dhat)
         self.contacts = [c for c in (self.plane_contact, self.mesh_contact) if c is not None]
         terms.extend([1.0, c] for c in self.contacts)
+        self.friction = None
+        if model.needs_friction:  # only where some μ > 0
+            self.friction = Friction(model.epsv * self.h)  # ε_v·h with the scene's own h
+            terms.append([1.0, self.friction])
         self.potential = IncrementalPotential(terms, self.timer)
 
         tet_vertices = np.unique(model.tets) if len(model.tets) else np.arange(n)
@@ -244,8 +237,33 @@ class Simulation:
                         residual_ratio=info["step_inf_norm"] / tol if tol > 0 else np.nan)
             newton_rows.append(info)
 
+        friction_iterations = 0
+        if self.friction is not None:
+            self._lag_friction(x_n, x_n)
+            friction_iterations = 1
         x_new, result = self.newton.solve(self.potential, x0, kinematic, target, tol,
                                           before_iteration, after_iteration)
+        if self.friction is not None:
+            # fricIterAmt n: re-lag normal forces and tangents at the solution n − 1 more
+            # times; ≤ 0: until the solution stops moving (at most FRICTION_ITERATION_CAP)
+            wanted = scene.friction_iterations
+            cap = wanted if wanted > 0 else FRICTION_ITERATION_CAP
+            while friction_iterations < cap:
+                self._lag_friction(x_new, x_n)
+                friction_iterations += 1
+                x_prev = x_new
+                x_new, more = self.newton.solve(self.potential, x_new, kinematic, target, tol,
+                                                before_iteration, after_iteration)
+                result.iterations += more.iterations
+                result.converged = more.converged
+                result.hit_iteration_cap |= more.hit_iteration_cap
+                result.min_alpha = min(result.min_alpha, more.min_alpha)
+                if wanted <= 0 and np.abs(x_new - x_prev).max() < tol:
+                    break
+            else:
+                if wanted <= 0:
+                    warnings.warn(f"step {st.step}: friction lagging did not settle in "
+                                  f"{FRICTION_ITERATION_CAP} updates", stacklevel=2)
         if not np.all(np.isfinite(x_new)):
             raise SolverError(f"step {st.step}: positions became non-finite")
 
@@ -266,6 +284,9 @@ class Simulation:
             "energy": self.potential.value(x_new),
             "kinetic_energy": kinetic_energy(model.mass, v_new),
             "elastic_energy": self.elasticity.value(x_new) if self.elasticity else 0.0,
+            "friction_contacts": self.friction.count if self.friction is not None else 0,
+            "friction_iterations": friction_iterations,
+            "friction_energy": self.friction.value(x_new) if self.friction is not None else 0.0,
             "wall_s": time.perf_counter() - wall0,
             "wall_energy_s": phases.get("energy", 0.0),
             "wall_assembly_s": phases.get("assembly", 0.0),
@@ -274,6 +295,21 @@ class Simulation:
             "wall_contact_set_s": phases.get("contact_set", 0.0),
         }
         return {"step": row, "newton": newton_rows, "result": result}
+
+    def _lag_friction(self, x_lag, x_start):
+        """Freeze normal forces and tangent bases of every active contact at x_lag."""
+        model = self.model
+        empty = np.zeros((0, 4), dtype=np.int64)
+        pt, ee, eps = empty, empty, np.zeros(0)
+        if self.mesh_contact is not None:
+            with self.timer("contact_set"):
+                pt, ee, eps = self.mesh_contact.update(x_lag)
+        has_planes = self.plane_contact is not None
+        self.friction.lag(
+            x_lag, pt, ee, eps,
+            model.plane_contact_vertices if has_planes else np.zeros(0, dtype=np.int64),
+            model.plane_origins, model.plane_normals, model.plane_friction,
+            model.scene.self_friction, self.state.kappa, model.dhat, x_start=x_start)
 
     def _warm_start(self, kinematic):
         """The initial guess of the step for free vertices (``warmStart`` 0..5), cut back

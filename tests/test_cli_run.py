@@ -6,13 +6,10 @@ from __future__ import annotations
 import json
 
 import meshio
-import numpy as np
 import pytest
-from examples import example_scripts
 
 from ipcsim.cli import main
 from ipcsim.io.csv_log import read_csv
-from ipcsim.model.builder import build_model
 from ipcsim.model.generate import box_tet_mesh, write_msh
 from ipcsim.scene import load_scene
 
@@ -52,14 +49,3 @@ def test_run_writes_the_output_folder(drop_scene, tmp_path, capsys):
     meshio.write(frames[5], mesh)
     assert main(["check", "--frames", str(out)]) == 1
     assert "below a plane" in capsys.readouterr().out
-
-
-@pytest.mark.parametrize("script", example_scripts(), ids=lambda p: p.name)
-def test_examples_needing_friction_are_refused(script, tmp_path, capsys):
-    model = build_model(load_scene(script))
-    if not model.needs_friction:
-        pytest.skip("frictionless: ipcsim simulates it")
-    assert main(["run", str(script), "-o", str(tmp_path / "out"), "-q"]) == 2
-    err = capsys.readouterr().err
-    assert "cannot simulate yet" in err and "Traceback" not in err
-    assert not (tmp_path / "out").exists()  # refused before anything is written

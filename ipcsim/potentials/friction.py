@@ -41,8 +41,12 @@ class Friction:
         return int(self.verts.shape[0])
 
     def lag(self, x_lag, pt_pairs, ee_pairs, ee_eps_x, plane_vertices, plane_origins,
-            plane_normals, plane_mu, mu_mesh, kappa, dhat):
+            plane_normals, plane_mu, mu_mesh, kappa, dhat, x_start=None):
         """Freeze normal forces, closest points and tangent bases at x_lag (n, 3).
+
+        Displacements are measured from ``x_start`` (the start of the time step; default
+        x_lag): a later friction update re-lags forces and bases at the step's current
+        solution while the sliding displacement still counts from the step's start.
 
         pt_pairs (k, 4), ee_pairs (j, 4) int64 candidate pairs with ee_eps_x (j,) their
         mollifier thresholds; plane_vertices (v,) the vertices tested against each plane
@@ -70,7 +74,8 @@ class Friction:
                                                   kappa)
             parts.append((v, c, b, plane_mu[use][pl] * lam))
         self._clear()
-        self.x_lag = x_lag.copy()
+        self.x_lag = (x_lag if x_start is None
+                      else np.ascontiguousarray(x_start, dtype=float).reshape(-1, 3)).copy()
         if parts:
             self.verts = np.ascontiguousarray(np.concatenate([p[0] for p in parts]))
             self.coeffs = np.ascontiguousarray(np.concatenate([p[1] for p in parts]))

@@ -3,7 +3,6 @@ without ever intersecting; intersecting or touching shapes at the start are refu
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 from ipcsim.cli import main
