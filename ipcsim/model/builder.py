@@ -569,8 +569,8 @@ def describe_terms(model: Model) -> tuple[str, ...]:
         terms.append(f"mesh contact ({', '.join(what)})")
     if model.needs_friction:
         parts = []
-        if scene.self_friction > 0 and model.needs_self_contact:
-            parts.append(f"mu={scene.self_friction:g} self")
+        if scene.self_friction > 0 and model.needs_mesh_contact:
+            parts.append(f"mu={scene.self_friction:g} mesh contacts")
         for pl, mu in zip(scene.planes, model.plane_friction):
             if mu > 0:
                 parts.append(f"{'ground' if pl.kind == 'ground' else 'half-space'} {mu:g}")

@@ -244,10 +244,10 @@ class Model:
 
     @property
     def needs_friction(self) -> bool:
-        """Some contact with mu > 0: a plane with friction, or self contact with selfFric.
-        (meshCO friction is ignored, as by the original's interior-point solver.)"""
+        """Some contact with mu > 0: a plane with friction, or mesh contact (self contact
+        or meshCO obstacles) with selfFric, which every mesh contact uses."""
         planes = bool(np.any(self.plane_friction > 0.0))
-        return planes or (self.scene.self_friction > 0.0 and self.needs_self_contact)
+        return planes or (self.scene.self_friction > 0.0 and self.needs_mesh_contact)
 
     @property
     def needs_damping(self) -> bool:

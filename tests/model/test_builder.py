@@ -249,7 +249,7 @@ def test_tutorial_dbc_selection(ipc_examples):
         want = [8 + i for i in _brute_force_select(pts, boundary, d.box_min, d.box_max)]
         assert s.vertices.tolist() == want and len(want) == 2
         assert s.linear_velocity == d.linear_velocity
-    assert "friction (mu=0.1 self, ground 0.1)" in model.terms
+    assert "friction (mu=0.1 mesh contacts, ground 0.1)" in model.terms
     assert "Dirichlet BC (2 moving sets)" in model.terms
 
 
@@ -334,7 +334,7 @@ def test_terms_only_what_the_scene_needs(mesh_dir):
     assert not model.needs_friction  # every mu is 0
     assert model.elastic_tets.tolist() == [True] * 6 + [False] * 6
     fric = build_model(dataclasses.replace(full, self_friction=0.2))
-    assert fric.needs_friction and "friction (mu=0.2 self)" in fric.terms
+    assert fric.needs_friction and "friction (mu=0.2 mesh contacts)" in fric.terms
 
 
 def test_model_is_frozen_and_read_only(mesh_dir):

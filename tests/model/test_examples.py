@@ -105,7 +105,7 @@ def test_project_scenes(repo_root):
         _check_model(build_model(load_scene(path)))
     model = build_model(load_scene(repo_root / "input/two_cubes_fall.txt"))
     assert model.n_tets == 2 * 750 and model.n_vertices == 2 * 216
-    assert "friction (mu=0.1 self, ground 0.1)" in model.terms
+    assert "friction (mu=0.1 mesh contacts, ground 0.1)" in model.terms
     assert model.needs_mesh_contact and model.needs_friction
 
 
