@@ -31,6 +31,7 @@ from .solver.linear import make_solver
 from .solver.newton import NewtonSolver
 
 GRAVITY = np.array([0.0, -9.80665, 0.0])
+FRICTION_TOL_FRACTION = 0.1  # Newton tolerance at most this fraction of ε_v·h
 FRICTION_ITERATION_CAP = 20  # fricIterAmt <= 0: lagging updates per step at most
 MAX_NEWTON_ITERATIONS = 5000  # reported in steps.csv and warned about when hit
 
@@ -205,6 +206,11 @@ class Simulation:
 
         x0 = self._warm_start(kinematic)
         tol = model.newton_tol(st.step)
+        if self.friction is not None:
+            # Newton must resolve the static-friction ramp |u| < ε_v·h: its stiffness μλ/ε
+            # makes every step from rest tiny, so a tolerance above the ramp stops a body
+            # that should start sliding (it then creeps at ε_v instead)
+            tol = min(tol, FRICTION_TOL_FRACTION * self.friction.eps)
         newton_rows = []
         fixed_kappa = model.kappa is not None
         balanced = [fixed_kappa]

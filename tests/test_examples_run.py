@@ -30,3 +30,26 @@ def test_frictionless_example_runs_to_the_end(scene, tmp_path, capsys):
     assert steps["converged"].all() and not steps["hit_iteration_cap"].any()
     assert main(["check", "--frames", str(out)]) == 0
     assert "checked" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("mu,slides", [("0.5", False), ("0.49", True)])
+def test_high_school_slope_sticks_at_tan_theta_and_slides_below(mu, slides, tmp_path):
+    """tan θ = 0.5. Sliding from rest with μ = 0.49: a = g(sin θ − μ cos θ) = 0.088 m/s²,
+    about 0.27 m in 2.5 s; with μ = 0.5 the block must stay (within a few mm of creep)."""
+    path = IPC_EXAMPLES / f"input/otherExamples/friction/slopeTest_highSchoolPhysics_{mu}.txt"
+    if not path.is_file():
+        pytest.skip("../shared/ipc-examples is not present")
+    out = tmp_path / "out"
+    assert main(["run", str(path), "-o", str(out), "-q"]) == 0
+    assert main(["check", "--frames", str(out)]) == 0
+    import meshio
+    import numpy as np
+
+    frames = sorted((out / "frames").glob("frame_*.vtu"))
+    moved = np.linalg.norm(meshio.read(frames[-1]).points.mean(axis=0)
+                           - meshio.read(frames[0]).points.mean(axis=0))
+    if slides:
+        assert moved == pytest.approx(0.5 * 9.80665 * (1 - 0.49 * 2) / 5 ** 0.5 * 2.5 ** 2,
+                                      rel=0.05)
+    else:
+        assert moved < 0.005
