@@ -290,9 +290,10 @@ class Simulation:
             "energy": self.potential.value(x_new),
             "kinetic_energy": kinetic_energy(model.mass, v_new),
             "elastic_energy": self.elasticity.value(x_new) if self.elasticity else 0.0,
-            "friction_contacts": self.friction.count if self.friction is not None else 0,
-            "friction_iterations": friction_iterations,
-            "friction_energy": self.friction.value(x_new) if self.friction is not None else 0.0,
+            # empty cells in a scene without friction
+            "friction_contacts": self.friction.count if self.friction is not None else None,
+            "friction_iterations": friction_iterations if self.friction is not None else None,
+            "friction_energy": self.friction.value(x_new) if self.friction is not None else None,
             "wall_s": time.perf_counter() - wall0,
             "wall_energy_s": phases.get("energy", 0.0),
             "wall_assembly_s": phases.get("assembly", 0.0),
