@@ -29,6 +29,8 @@ from .incremental import IncrementalPotential
 # A prescribed motion counts as complete when ≥ 99.9 % of it is done, as in the original.
 KINEMATIC_COMPLETION = 1e-3
 MAX_HALVINGS = 40
+# A failed line search ends the step as converged when ‖p‖∞ is within this factor of tol.
+ROUNDOFF_TOLERANCE_FACTOR = 1e3
 
 
 @dataclass
@@ -108,7 +110,18 @@ class NewtonSolver:
                 alpha = min(1.0, potential.max_step(x, p))
                 if result.kinematic_complete:
                     alpha, failed, energy = self._backtrack(potential, x, p, alpha, energy)
-                    result.line_search_failures += failed
+                    if failed:
+                        # no step along p lowers E in floating point: x is a minimiser to
+                        # machine precision (typical when tol sits near round-off), unless
+                        # the step is far above the tolerance
+                        result.line_search_failures += 1
+                        result.min_alpha = 0.0
+                        result.converged = step_norm < ROUNDOFF_TOLERANCE_FACTOR * tol
+                        result.iterations = it + 1
+                        info.update(alpha=0.0, energy=energy)
+                        if after_iteration is not None:
+                            after_iteration(x, info)
+                        return x, result
                 x_new = x + alpha * p.reshape(-1, 3)
                 if alpha == 1.0 and remaining > 0.0:
                     x_new[kinematic] = target[kinematic]  # land exactly on the targets
@@ -131,13 +144,15 @@ class NewtonSolver:
 
     @staticmethod
     def _backtrack(potential, x, p, alpha, e0=None):
-        """Halve α until E(x + αp) ≤ E(x). Returns (α, 1 if it gave up else 0, E there)."""
+        """Halve α until E(x + αp) < E(x). Returns (α, True if it gave up, E at the point
+        kept: x + αp, or x itself when it gave up). Equal energies count as no progress:
+        they only occur once E has reached round-off."""
         if e0 is None:
             e0 = potential.value(x)
         p3 = p.reshape(-1, 3)
         for _ in range(MAX_HALVINGS):
             e = potential.value(x + alpha * p3)
-            if e <= e0:
-                return alpha, 0, e
+            if e < e0:
+                return alpha, False, e
             alpha *= 0.5
-        return alpha, 1, e
+        return 0.0, True, e0
