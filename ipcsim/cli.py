@@ -33,6 +33,18 @@ def _cmd_convert(args) -> int:
     return convert.main(args)
 
 
+def _cmd_render(args) -> int:
+    from .commands import render
+
+    return render.main(args)
+
+
+def _cmd_compare(args) -> int:
+    from .commands import compare
+
+    return compare.main(args)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="ipcsim",
@@ -67,6 +79,44 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("source", help="scene to read (.txt or .toml)")
     p.add_argument("target", help="scene to write (.txt or .toml)")
     p.set_defaults(func=_cmd_convert)
+
+    p = sub.add_parser("render", help="draw a run's frames off screen as PNGs "
+                       "(and optionally a GIF or MP4)")
+    p.add_argument("folder", metavar="OUT", help="output folder of a run")
+    p.add_argument("--every", type=int, default=1, metavar="K",
+                   help="render every K-th of the selected frames (default 1)")
+    p.add_argument("--frames", metavar="A:B",
+                   help="only frames of steps A <= step < B (either end may be left out)")
+    p.add_argument("--gif", action="store_true", help="also write render/animation.gif")
+    p.add_argument("--mp4", action="store_true",
+                   help="also write render/animation.mp4 (needs imageio and imageio-ffmpeg)")
+    p.add_argument("--field", choices=("velocity", "none"), default="none",
+                   help="colour by |velocity| instead of by body (default none)")
+    p.add_argument("--azimuth", type=float, default=30.0, metavar="DEG",
+                   help="camera angle about the vertical y axis; 0 looks along -z "
+                        "(default 30)")
+    p.add_argument("--elevation", type=float, default=20.0, metavar="DEG",
+                   help="camera angle above the horizontal (default 20)")
+    p.add_argument("--zoom", type=float, default=1.0, metavar="Z",
+                   help="magnify the view that frames the whole run (default 1)")
+    p.add_argument("--size", type=int, nargs=2, default=(800, 600), metavar=("W", "H"),
+                   help="image size in pixels (default 800 600)")
+    p.add_argument("-o", "--output", metavar="DIR", help="image folder (default OUT/render)")
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+    p.set_defaults(func=_cmd_render)
+
+    p = sub.add_parser("compare", help="compare two runs' frames and logs (exit 0 same, "
+                       "1 different, 2 cannot compare)")
+    p.add_argument("a", metavar="A", help="output folder of the reference run")
+    p.add_argument("b", metavar="B", help="output folder of the other run, or a folder of "
+                   "the original IPC program's <n>.obj files")
+    p.add_argument("--rtol", type=float, default=1e-6, metavar="R",
+                   help="allowed vertex displacement as a fraction of the scene size "
+                        "(bounding-box diagonal of A's first frame; default 1e-6)")
+    p.add_argument("--atol", type=float, default=0.0, metavar="A",
+                   help="allowed vertex displacement in metres, added to rtol's (default 0)")
+    p.add_argument("--plot", metavar="FILE.png", help="chart the differences over time")
+    p.set_defaults(func=_cmd_compare)
     return parser
 
 

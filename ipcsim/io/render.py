@@ -1,0 +1,408 @@
+"""Offscreen pictures of a run: one PNG per frame, optionally an animated GIF or MP4.
+
+Reads only the output folder: ``frames/frame_*.vtu`` (positions, ``body_id``,
+``velocity``, ``kinematic``), ``frames/series.pvd`` (frame times) and ``scene.toml``
+(analytic planes, drawn as finite tiles). The surface drawn is the boundary of the tets
+plus the triangle cells, built once from the first frame (connectivity never changes), so
+each frame only swaps the positions.
+
+Rendering needs no display: pyvista renders off screen; on Linux without X the VTK
+wheels fall back from X to EGL (or OSMesa), and the warning VTK prints about the missing
+X server is silenced while the window is made.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import IpcsimError
+from .atomic import atomic_path
+from .vtk import FRAMES_DIR, SERIES_NAME, read_series
+
+__all__ = [
+    "OBSTACLE_RGB",
+    "PALETTE",
+    "RenderError",
+    "RenderOptions",
+    "RunFrames",
+    "body_rgb",
+    "load_run_frames",
+    "parse_frame_range",
+    "render_run",
+]
+
+_FRAME_RE = re.compile(r"^frame_(\d+)\.vtu$")
+
+# Tableau 10: distinct hues, so bodies stay distinguishable under shading.
+PALETTE = np.array([
+    (31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189),
+    (140, 86, 75), (227, 119, 194), (188, 189, 34), (23, 190, 207), (127, 127, 127),
+], dtype=np.uint8)
+OBSTACLE_RGB = (150, 150, 150)
+PLANE_RGB = (205, 205, 200)
+
+
+class RenderError(IpcsimError):
+    """A run that cannot be rendered, or options that make no sense."""
+
+
+def body_rgb(body: int) -> tuple[int, int, int]:
+    """Palette colour of a simulated body (cycles after 10 bodies)."""
+    return tuple(int(c) for c in PALETTE[int(body) % len(PALETTE)])
+
+
+@dataclass
+class RenderOptions:
+    every: int = 1
+    frames: tuple[int | None, int | None] = (None, None)  # step range [a, b)
+    gif: bool = False
+    mp4: bool = False
+    field: str = "none"  # "none" | "velocity"
+    azimuth: float = 30.0  # degrees about +y; 0 looks along -z (x to the right)
+    elevation: float = 20.0  # degrees above the horizontal
+    zoom: float = 1.0
+    size: tuple[int, int] = (800, 600)
+    output: Path | None = None  # default <run>/render
+
+
+def parse_frame_range(text: str) -> tuple[int | None, int | None]:
+    """``A:B`` -> steps A <= step < B; either end may be left out (``10:``, ``:50``)."""
+    m = re.fullmatch(r"\s*(\d*)\s*:\s*(\d*)\s*", text or "")
+    if not m:
+        raise RenderError(f"--frames expects A:B (frame step numbers, B excluded), got {text!r}")
+    a = int(m.group(1)) if m.group(1) else None
+    b = int(m.group(2)) if m.group(2) else None
+    if a is not None and b is not None and b <= a:
+        raise RenderError(f"--frames {text}: the range is empty (B must be larger than A)")
+    return a, b
+
+
+@dataclass
+class RunFrames:
+    """The frames of one run: ``steps`` (sorted), their ``paths`` and ``times``."""
+
+    folder: Path
+    steps: list[int]
+    paths: list[Path]
+    times: list[float]
+
+
+def load_run_frames(folder) -> RunFrames:
+    """List the frames of the run in ``folder`` (by file name; times from series.pvd)."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise RenderError(f"{folder}: no such output folder")
+    frames_dir = folder / FRAMES_DIR
+    found = {}
+    if frames_dir.is_dir():
+        for p in frames_dir.iterdir():
+            m = _FRAME_RE.match(p.name)
+            if m:
+                found[int(m.group(1))] = p
+    if not found:
+        raise RenderError(f"{folder}: no frames (no {FRAMES_DIR}/frame_*.vtu)")
+    times = {}
+    pvd = frames_dir / SERIES_NAME
+    if pvd.is_file():
+        try:
+            for t, p in read_series(pvd):
+                m = _FRAME_RE.match(p.name)
+                if m:
+                    times[int(m.group(1))] = t
+        except Exception:  # a damaged series only costs the times; frames carry TimeValue
+            times = {}
+    steps = sorted(found)
+    return RunFrames(folder, steps, [found[s] for s in steps],
+                     [times.get(s, math.nan) for s in steps])
+
+
+def _read_frame(path: Path):
+    import meshio
+
+    try:
+        return meshio.read(path)
+    except Exception as exc:  # meshio raises many kinds for a damaged file
+        raise RenderError(f"{path}: cannot read frame ({exc})") from exc
+
+
+def _cells(mesh, kind: str) -> np.ndarray:
+    blocks = [c.data for c in mesh.cells if c.type == kind]
+    width = {"tetra": 4, "triangle": 3, "line": 2, "vertex": 1}[kind]
+    if not blocks:
+        return np.zeros((0, width), dtype=np.int64)
+    return np.concatenate(blocks).astype(np.int64).reshape(-1, width)
+
+
+def _poly_cells(polys: np.ndarray) -> np.ndarray:
+    """VTK's flat cell layout [n, i0, ..., n, i0, ...]."""
+    if len(polys) == 0:
+        return np.zeros(0, dtype=np.int64)
+    return np.hstack([np.full((len(polys), 1), polys.shape[1]), polys]).ravel()
+
+
+def _plane_tile(pv, plane, center, extent):
+    """A square tile of the plane through the point of it nearest the run's centre."""
+    n = np.asarray(plane.normal, dtype=float)
+    n = n / np.linalg.norm(n)
+    o = np.asarray(plane.origin, dtype=float)
+    c = center - np.dot(center - o, n) * n
+    size = 3.0 * extent
+    return pv.Plane(center=c, direction=n, i_size=size, j_size=size, i_resolution=1,
+                    j_resolution=1)
+
+
+def _camera(center, radius, azimuth, elevation, zoom, aspect, view_angle=30.0):
+    """Camera position and up vector looking at ``center`` so that a sphere of
+    ``radius`` fits the view (both directions), then zoomed."""
+    az, el = math.radians(azimuth), math.radians(elevation)
+    direction = np.array([math.sin(az) * math.cos(el), math.sin(el),
+                          math.cos(az) * math.cos(el)])
+    half = math.radians(view_angle) / 2  # vertical half angle
+    half_h = math.atan(math.tan(half) * aspect)
+    dist = radius / math.sin(min(half, half_h)) / zoom
+    up = (0.0, 1.0, 0.0)
+    if abs(elevation) > 89.0:  # looking straight down/up: y cannot be up on screen
+        up = (-math.sin(az), 0.0, -math.cos(az))
+    return center + dist * direction, up
+
+
+def _quiet_vtk():
+    """Silence VTK's warnings (the failed X connection before it falls back to EGL);
+    returns a function restoring the previous level."""
+    try:
+        from vtkmodules.vtkCommonCore import vtkLogger
+    except Exception:
+        return lambda: None
+    old = vtkLogger.GetCurrentVerbosityCutoff()
+    vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_ERROR)
+    return lambda: vtkLogger.SetStderrVerbosity(old)
+
+
+def _save_png(path: Path, image: np.ndarray) -> None:
+    from PIL import Image
+
+    with atomic_path(path, fsync=False) as tmp:
+        Image.fromarray(image).save(tmp, format="PNG")
+
+
+def gif_writer_name() -> str:
+    """Which library writes GIFs here: ``imageio`` when installed, else ``Pillow``."""
+    try:
+        import imageio  # noqa: F401
+        return "imageio"
+    except ImportError:
+        return "Pillow"
+
+
+def _write_gif(path: Path, images: list[np.ndarray], durations_s: list[float]) -> str:
+    # GIF delays are in 1/100 s and viewers treat delays below 0.02 s as slow defaults
+    ms = [max(20, int(round(d * 1000 / 10)) * 10) for d in durations_s]
+    writer = gif_writer_name()
+    with atomic_path(path, fsync=False) as tmp:
+        if writer == "imageio":
+            import imageio.v2 as imageio
+
+            imageio.mimsave(tmp, images, format="GIF", duration=[m / 1000 for m in ms], loop=0)
+        else:
+            from PIL import Image
+
+            frames = [Image.fromarray(im) for im in images]
+            frames[0].save(tmp, format="GIF", save_all=True, append_images=frames[1:],
+                           duration=ms, loop=0)
+    return writer
+
+
+def _check_mp4_encoder() -> None:
+    try:
+        import imageio  # noqa: F401
+        import imageio_ffmpeg  # noqa: F401
+    except ImportError as exc:
+        raise RenderError("--mp4 needs an MP4 encoder: install the packages imageio and "
+                          f"imageio-ffmpeg (pip install imageio imageio-ffmpeg); {exc}") from exc
+
+
+def _write_mp4(path: Path, images: list[np.ndarray], fps: float) -> None:
+    import imageio.v2 as imageio
+
+    with atomic_path(path, fsync=False) as tmp:
+        # the temporary name has no .mp4 ending, so name the format explicitly
+        with imageio.get_writer(tmp, format="FFMPEG", mode="I", fps=fps,
+                                codec="libx264", macro_block_size=2) as w:
+            for im in images:
+                w.append_data(im)
+
+
+def render_run(folder, options: RenderOptions | None = None, say=print) -> dict:
+    """Render the run in ``folder``; returns ``{"pngs": [...], "gif": path|None,
+    "mp4": path|None, "gif_writer": name|None}``."""
+    opt = options or RenderOptions()
+    if opt.every < 1:
+        raise RenderError(f"--every must be at least 1, got {opt.every}")
+    if opt.field not in ("none", "velocity"):
+        raise RenderError(f"--field must be 'velocity' or 'none', got {opt.field!r}")
+    if not opt.zoom > 0:
+        raise RenderError(f"--zoom must be positive, got {opt.zoom}")
+    if not -90.0 <= opt.elevation <= 90.0:
+        raise RenderError(f"--elevation must be between -90 and 90 degrees, got {opt.elevation}")
+    w, h = (int(v) for v in opt.size)
+    if not (16 <= w <= 8192 and 16 <= h <= 8192):
+        raise RenderError(f"--size must be between 16 and 8192 pixels each, got {w} {h}")
+    if opt.mp4:
+        _check_mp4_encoder()  # before spending time on rendering
+
+    run = load_run_frames(folder)
+    a, b = opt.frames
+    pick = [i for i, s in enumerate(run.steps)
+            if (a is None or s >= a) and (b is None or s < b)]
+    pick = pick[:: opt.every]
+    if not pick:
+        raise RenderError(f"{run.folder}: no frames in the selected range "
+                          f"(the run has steps {run.steps[0]}..{run.steps[-1]})")
+    out_dir = Path(opt.output) if opt.output is not None else run.folder / "render"
+    out_dir.mkdir(parents=True, exist_ok=True)
+
+    planes = []
+    scene_path = run.folder / "scene.toml"
+    if scene_path.is_file():
+        from ..scene import load_scene
+
+        planes = list(load_scene(scene_path).planes)
+    else:
+        say(f"warning: {scene_path} not found; planes are not drawn")
+
+    # Read every selected frame first: the camera and the colour scale cover the whole run.
+    meshes = [_read_frame(run.paths[i]) for i in pick]
+    first = meshes[0]
+    n = len(first.points)
+    for i, m in zip(pick, meshes):
+        if len(m.points) != n:
+            raise RenderError(f"{run.paths[i]}: {len(m.points)} vertices, the first frame "
+                              f"has {n}")
+    body = np.asarray(first.point_data.get("body_id", np.zeros(n)), dtype=np.int64).ravel()
+    kin = np.asarray(first.point_data.get("kinematic", np.zeros(n)), dtype=np.int64).ravel()
+    # a body is an obstacle when every vertex of it is prescribed
+    nb = int(body.max()) + 1 if n else 0
+    moving = np.bincount(body, weights=(kin == 0), minlength=nb) > 0
+    obstacle_vertex = ~moving[body]
+
+    from ..model.surface import boundary_triangles
+
+    tris = np.concatenate([boundary_triangles(_cells(first, "tetra")), _cells(first, "triangle")])
+    lines, verts = _cells(first, "line"), _cells(first, "vertex")
+    tri_obst = obstacle_vertex[tris].all(axis=1) if len(tris) else np.zeros(0, bool)
+
+    allpts = np.concatenate([m.points for m in meshes])
+    finite = np.isfinite(allpts).all(axis=1)
+    if not finite.any():
+        raise RenderError(f"{run.folder}: the frames hold no finite positions")
+    lo, hi = allpts[finite].min(axis=0), allpts[finite].max(axis=0)
+    center = (lo + hi) / 2
+    extent = float(np.max(hi - lo)) or 1.0
+    radius = 0.5 * float(np.linalg.norm(hi - lo)) or 0.5
+
+    speeds = None
+    if opt.field == "velocity":
+        speeds = [np.linalg.norm(np.asarray(m.point_data.get("velocity", np.zeros((n, 3)))),
+                                 axis=1) for m in meshes]
+        vmax = max(float(np.nanmax(s)) if s.size else 0.0 for s in speeds) or 1.0
+
+    times = []
+    for i, m in zip(pick, meshes):
+        t = run.times[i]
+        if math.isnan(t):
+            tv = m.field_data.get("TimeValue")
+            t = float(np.ravel(tv)[0]) if tv is not None and np.size(tv) else math.nan
+        times.append(t)
+
+    restore = _quiet_vtk()
+    try:
+        import pyvista as pv
+
+        pv.OFF_SCREEN = True
+        try:
+            plotter = pv.Plotter(off_screen=True, window_size=(w, h))
+        except Exception as exc:
+            raise RenderError(f"cannot open an offscreen render window: {exc}") from exc
+        plotter.set_background("white")
+
+        def poly(mask_tris, with_lines):
+            p = pv.PolyData(np.asarray(first.points, dtype=float),
+                            faces=_poly_cells(tris[mask_tris]) if mask_tris.any() else None)
+            if with_lines and len(lines):
+                p.lines = _poly_cells(lines)
+            if with_lines and len(verts):
+                p.verts = _poly_cells(verts)
+            return p
+
+        body_mesh = poly(~tri_obst, True)
+        obst_mesh = poly(tri_obst, False) if tri_obst.any() else None
+        if speeds is None:
+            rgb = PALETTE[body % len(PALETTE)].copy()
+            rgb[obstacle_vertex] = OBSTACLE_RGB
+            body_mesh.point_data["rgb"] = rgb
+            plotter.add_mesh(body_mesh, scalars="rgb", rgb=True, smooth_shading=False,
+                             line_width=3, point_size=8, render_points_as_spheres=True)
+        else:
+            body_mesh.point_data["|v| m/s"] = speeds[0]
+            plotter.add_mesh(body_mesh, scalars="|v| m/s", cmap="viridis",
+                             clim=(0.0, vmax), line_width=3, point_size=8,
+                             render_points_as_spheres=True,
+                             scalar_bar_args={"color": "black", "vertical": True,
+                                              "title": "|v| m/s", "position_x": 0.88,
+                                              "position_y": 0.2, "width": 0.06,
+                                              "height": 0.6, "label_font_size": 10,
+                                              "title_font_size": 12})
+        if obst_mesh is not None:
+            plotter.add_mesh(obst_mesh, color=np.array(OBSTACLE_RGB) / 255)
+        for pl in planes:
+            plotter.add_mesh(_plane_tile(pv, pl, center, extent),
+                             color=np.array(PLANE_RGB) / 255, opacity=0.6)
+
+        pos, up = _camera(center, radius, opt.azimuth, opt.elevation, opt.zoom, w / h)
+        plotter.camera.position = tuple(pos)
+        plotter.camera.focal_point = tuple(center)
+        plotter.camera.up = up
+        plotter.camera.view_angle = 30.0
+
+        pngs, images = [], []
+        for k, (i, m) in enumerate(zip(pick, meshes)):
+            pts = np.asarray(m.points, dtype=float)
+            body_mesh.points = pts
+            if obst_mesh is not None:
+                obst_mesh.points = pts
+            if speeds is not None:
+                body_mesh.point_data["|v| m/s"] = speeds[k]
+            step, t = run.steps[i], times[k]
+            tt = f"t = {t:.3f} s" if not math.isnan(t) else "t = ?"
+            # same name: replaces the previous frame's stamp
+            plotter.add_text(f"{tt}   step {step}", position="upper_left", font_size=12,
+                             color="black", name="time_stamp")
+            plotter.renderer.ResetCameraClippingRange()
+            plotter.render()
+            img = np.asarray(plotter.screenshot(return_img=True))[:, :, :3].copy()
+            png = out_dir / (run.paths[i].stem + ".png")
+            _save_png(png, img)
+            pngs.append(png)
+            if opt.gif or opt.mp4:
+                images.append(img)
+        plotter.close()
+    finally:
+        restore()
+
+    result = {"pngs": pngs, "gif": None, "mp4": None, "gif_writer": None}
+    dts = np.diff(times) if len(times) > 1 else np.array([0.04])
+    dts = [float(d) if np.isfinite(d) and d > 0 else 0.04 for d in dts]
+    if opt.gif:
+        gif = out_dir / "animation.gif"
+        result["gif_writer"] = _write_gif(gif, images, dts + [dts[-1]])
+        result["gif"] = gif
+    if opt.mp4:
+        mp4 = out_dir / "animation.mp4"
+        _write_mp4(mp4, images, fps=min(60.0, max(1.0, 1.0 / float(np.median(dts)))))
+        result["mp4"] = mp4
+    return result

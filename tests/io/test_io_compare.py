@@ -1,0 +1,115 @@
+"""`ipcsim compare`: identical, perturbed and mismatched runs, and original OBJ output."""
+
+from __future__ import annotations
+
+import shutil
+
+import meshio
+import pytest
+
+from ipcsim.cli import main
+from ipcsim.io.compare import surface_vertices
+from ipcsim.model.generate import box_tet_mesh, write_msh
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("compare")
+    points, tets = box_tet_mesh(2, 2, 2, size=(0.2, 0.2, 0.2), origin=(-0.1, 0.0, -0.1))
+    write_msh(tmp / "cube.msh", points, tets)
+    two = tmp / "two.txt"
+    two.write_text("shapes input 2\ncube.msh -0.3 0.05 0  0 0 0  1 1 1\n"
+                   "cube.msh 0.3 0.05 0  0 0 0  1 1 1\nselfCollisionOff\nground 0 0\n"
+                   "time 0.05 0.01\n")
+    one = tmp / "one.txt"
+    one.write_text("shapes input 1\ncube.msh 0 0.05 0  0 0 0  1 1 1\nselfCollisionOff\n"
+                   "ground 0 0\ntime 0.05 0.01\n")
+    a, b, c = tmp / "a", tmp / "b", tmp / "c"
+    for scene, out in ((two, a), (two, b), (one, c)):
+        assert main(["run", str(scene), "-o", str(out), "--steps", "3", "-q"]) == 0
+    return a, b, c
+
+
+def test_identical_runs_are_the_same(runs, tmp_path, capsys):
+    a, b, _ = runs
+    plot = tmp_path / "diff.png"
+    assert main(["compare", str(a), str(b), "--plot", str(plot)]) == 0
+    assert "same within tolerance" in capsys.readouterr().out
+    assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_perturbed_frame_is_named(runs, tmp_path, capsys):
+    a, b, _ = runs
+    p = tmp_path / "p"
+    shutil.copytree(b, p)
+    f = p / "frames" / "frame_000002.vtu"
+    mesh = meshio.read(f)
+    mesh.points[5, 0] += 1e-3
+    meshio.write(f, mesh)
+    assert main(["compare", str(a), str(p)]) == 1
+    out = capsys.readouterr().out
+    assert "frame_000002.vtu" in out and "position" in out
+    # within a loose tolerance it is the same again
+    assert main(["compare", str(a), str(p), "--atol", "2e-3"]) == 0
+
+
+def test_different_log_counts_are_named(runs, tmp_path, capsys):
+    a, b, _ = runs
+    p = tmp_path / "p"
+    shutil.copytree(b, p)
+    lines = (p / "steps.csv").read_text().splitlines()
+    cols = lines[0].split(",")
+    k = cols.index("newton_iterations")
+    row = lines[2].split(",")
+    row[k] = str(int(row[k]) + 1)
+    lines[2] = ",".join(row)
+    (p / "steps.csv").write_text("\n".join(lines) + "\n")
+    assert main(["compare", str(a), str(p)]) == 1
+    assert "step 2: newton_iterations" in capsys.readouterr().out
+
+
+def test_mismatched_folders_cannot_be_compared(runs, tmp_path, capsys):
+    a, b, c = runs
+    assert main(["compare", str(a), str(c)]) == 2
+    assert "different vertex counts" in capsys.readouterr().err
+    p = tmp_path / "p"
+    shutil.copytree(b, p)
+    (p / "frames" / "frame_000003.vtu").unlink()
+    assert main(["compare", str(a), str(p)]) == 2
+    assert "frame_000003 in A but not in B" in capsys.readouterr().err
+    (p / "frames" / "frame_000003.vtu").write_bytes((b / "frames" / "frame_000003.vtu")
+                                                    .read_bytes())
+    (p / "steps.csv").unlink()
+    assert main(["compare", str(a), str(p)]) == 2
+    assert "missing file" in capsys.readouterr().err
+    assert main(["compare", str(a), str(tmp_path / "absent")]) == 2
+
+
+def _write_original(a, folder, perturb_step=None):
+    """The original program's <n>.obj: surface vertices in global order, faces shuffled."""
+    folder.mkdir()
+    for f in sorted((a / "frames").glob("frame_*.vtu")):
+        step = int(f.stem.split("_")[1])
+        mesh = meshio.read(f)
+        index = surface_vertices(mesh)
+        x = mesh.points[index].copy()
+        if step == perturb_step:
+            x[3] += 0.01
+        lines = [f"v {p[0]:.17g} {p[1]:.17g} {p[2]:.17g}" for p in x]
+        lines += ["f 1 2 3", "f 3 2 4"]  # faces are not compared
+        (folder / f"{step}.obj").write_text("\n".join(lines) + "\n")
+
+
+def test_original_obj_output(runs, tmp_path, capsys):
+    a, _, _ = runs
+    same, moved = tmp_path / "orig", tmp_path / "moved"
+    _write_original(a, same)
+    _write_original(a, moved, perturb_step=1)
+    assert main(["compare", str(a), str(same)]) == 0
+    assert "surface vertices" in capsys.readouterr().out
+    assert main(["compare", str(a), str(moved)]) == 1
+    assert "frame_000001.vtu vs 1.obj" in capsys.readouterr().out
+    # a missing <n>.obj cannot be compared
+    (same / "2.obj").unlink()
+    assert main(["compare", str(a), str(same)]) == 2
+    assert "no <n>.obj for steps 2" in capsys.readouterr().err
