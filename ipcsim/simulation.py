@@ -70,11 +70,8 @@ class Simulation:
                                          model.lame, scene.energy, n)
             terms.append([fw, self.elasticity])
         self.damping = None
-        damping_stiff = scene.damping_stiff
-        if scene.damping_ratio > 0:
-            damping_stiff = 0.75 * scene.damping_ratio * self.h ** 3
-        if damping_stiff > 0 and self.elasticity is not None:
-            self.damping = Damping(damping_stiff, self.h, fw)
+        if model.needs_damping and self.elasticity is not None:
+            self.damping = Damping(model.damping_stiffness, self.h, fw)
             terms.append([1.0, self.damping])
         self.plane_contact = self.mesh_contact = None
         if model.needs_plane_contact:
