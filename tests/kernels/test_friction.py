@@ -21,6 +21,7 @@ from ipcsim.kernels.contact_barrier import classify_and_distance
 from ipcsim.kernels import friction as KF
 from ipcsim.kernels import mollifier as M
 from ipcsim.potentials.friction import Friction
+from two_bodies import boundary_faces, two_cubes
 
 
 # =========================================================================================
@@ -171,38 +172,10 @@ def test_projected_hessian_is_psd_and_agrees():
 # Two bodies: ipctk oracle and momentum
 # =========================================================================================
 
-def tet_box(n):
-    g = np.linspace(0.0, 1.0, n + 1)
-    V = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
-    idx = np.arange((n + 1) ** 3).reshape(n + 1, n + 1, n + 1)
-    ijk = np.stack(np.meshgrid(*(np.arange(n),) * 3, indexing="ij"), -1).reshape(-1, 3)
-    tets = []
-    for perm in ((0, 1, 2), (0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0)):
-        c = ijk.copy()
-        verts = [idx[c[:, 0], c[:, 1], c[:, 2]]]
-        for ax in perm:
-            c[:, ax] += 1
-            verts.append(idx[c[:, 0], c[:, 1], c[:, 2]])
-        tets.append(np.stack(verts, 1))
-    T = np.concatenate(tets)
-    a, b, c_, d = (V[T[:, k]] for k in range(4))
-    neg = np.einsum("ij,ij->i", np.cross(b - a, c_ - a), d - a) < 0
-    T[neg, 2], T[neg, 3] = T[neg, 3].copy(), T[neg, 2].copy()
-    return V, T
 
 
-def boundary_faces(T):
-    F = np.concatenate([T[:, [1, 2, 3]], T[:, [0, 3, 2]], T[:, [0, 1, 3]], T[:, [0, 2, 1]]])
-    _, inv, cnt = np.unique(np.sort(F, 1), axis=0, return_inverse=True, return_counts=True)
-    return F[cnt[inv.ravel()] == 1]
 
 
-def two_cubes(n, gap, shift, angle_deg):
-    V0, T0 = tet_box(n)
-    th = np.deg2rad(angle_deg)
-    R = np.array([[np.cos(th), -np.sin(th), 0], [np.sin(th), np.cos(th), 0], [0, 0, 1]])
-    V1 = (V0 - 0.5) @ R.T + 0.5 + np.array([shift[0], shift[1], 1.0 + gap])
-    return np.vstack([V0, V1]), np.vstack([T0, T0 + len(V0)])
 
 
 def brute_force_pairs(X, E, F, dhat):
