@@ -26,3 +26,23 @@ def boundary_faces(T):
 
 def surface_edges(F):
     return unique_edges(np.asarray(F, dtype=np.int64))
+
+
+# The two-body oracle scenes of the barrier and friction tests.
+SCENES = {
+    # generic contact: vertex-face, edge-edge crossings, edges and corners over faces
+    "rotated": dict(n=3, gap=0.05, shift=(0.13, 0.07), angle_deg=17.0, dhat=0.1, kappa=1e3),
+    # almost aligned faces: many nearly parallel (mollified, frictionless) edge pairs
+    "aligned": dict(n=3, gap=0.02, shift=(0.05, 0.03), angle_deg=0.5, dhat=0.05, kappa=1e4),
+}
+
+
+def ipctk_scene(ipctk, name):
+    """(ipctk CollisionMesh, its surface positions X, the scene's parameters)."""
+    p = SCENES[name]
+    V, T = two_cubes(p["n"], p["gap"], p["shift"], p["angle_deg"])
+    F = boundary_faces(T).astype(np.int32)
+    E = ipctk.edges(np.asfortranarray(F))
+    mesh = ipctk.CollisionMesh.build_from_full_mesh(np.asfortranarray(V), E, F)
+    X = np.ascontiguousarray(mesh.vertices(np.asfortranarray(V)))
+    return mesh, X, p

@@ -18,7 +18,7 @@ from ipcsim.kernels import contact_barrier as CB
 from ipcsim.kernels import distance as D
 from ipcsim.kernels import linalg as LA
 from ipcsim.kernels import mollifier as M
-from two_bodies import boundary_faces, two_cubes, surface_edges
+from two_bodies import SCENES, boundary_faces, ipctk_scene, surface_edges, two_cubes
 
 
 @pytest.fixture(scope="module")
@@ -66,21 +66,8 @@ def brute_force_candidates(X, E, F, inflation):
             np.column_stack([ea, eb]))
 
 
-SCENES = {
-    # generic contact: vertex-face, edge-edge crossings, edges and corners over faces
-    "rotated": dict(n=3, gap=0.05, shift=(0.13, 0.07), angle_deg=17.0, dhat=0.1, kappa=1e3),
-    # almost aligned faces: many nearly parallel (mollified) edge-edge pairs
-    "aligned": dict(n=3, gap=0.02, shift=(0.05, 0.03), angle_deg=0.5, dhat=0.05, kappa=1e4),
-}
-
-
 def scene(ipctk, name):
-    p = SCENES[name]
-    V, T = two_cubes(p["n"], p["gap"], p["shift"], p["angle_deg"])
-    F = boundary_faces(T).astype(np.int32)
-    E = ipctk.edges(np.asfortranarray(F))
-    mesh = ipctk.CollisionMesh.build_from_full_mesh(np.asfortranarray(V), E, F)
-    X = np.ascontiguousarray(mesh.vertices(np.asfortranarray(V)))
+    mesh, X, p = ipctk_scene(ipctk, name)
     Ec = np.asarray(mesh.edges, dtype=np.int64)
     Fc = np.asarray(mesh.faces, dtype=np.int64)
     pt, ee, ee_edges = brute_force_candidates(X, Ec, Fc, 0.5 * p["dhat"])

@@ -21,7 +21,7 @@ from ipcsim.kernels.contact_barrier import classify_and_distance
 from ipcsim.kernels import friction as KF
 from ipcsim.kernels import mollifier as M
 from ipcsim.potentials.friction import Friction
-from two_bodies import boundary_faces, two_cubes
+from two_bodies import SCENES, boundary_faces, ipctk_scene, two_cubes
 
 
 # =========================================================================================
@@ -199,21 +199,8 @@ def brute_force_pairs(X, E, F, dhat):
     return np.ascontiguousarray(pt, np.int64), np.ascontiguousarray(ee, np.int64)
 
 
-SCENES = {
-    # generic contact: vertex-face, edge-edge crossings, edges and corners over faces
-    "rotated": dict(n=3, gap=0.05, shift=(0.13, 0.07), angle_deg=17.0, dhat=0.1, kappa=1e3),
-    # almost aligned faces: many nearly parallel (mollified, frictionless) edge pairs
-    "aligned": dict(n=3, gap=0.02, shift=(0.05, 0.03), angle_deg=0.5, dhat=0.05, kappa=1e4),
-}
-
-
 def scene(ipctk, name):
-    p = SCENES[name]
-    V, T = two_cubes(p["n"], p["gap"], p["shift"], p["angle_deg"])
-    F = boundary_faces(T).astype(np.int32)
-    E = ipctk.edges(np.asfortranarray(F))
-    mesh = ipctk.CollisionMesh.build_from_full_mesh(np.asfortranarray(V), E, F)
-    X = np.ascontiguousarray(mesh.vertices(np.asfortranarray(V)))
+    mesh, X, p = ipctk_scene(ipctk, name)
     pt, ee = brute_force_pairs(X, np.asarray(mesh.edges, np.int64),
                                np.asarray(mesh.faces, np.int64), p["dhat"])
     eps_x = M.edge_edge_mollifier_thresholds(np.ascontiguousarray(mesh.rest_positions), ee)
