@@ -50,6 +50,25 @@ class SolverError(IpcsimError):
     exit_status = 3
 
 
+class NonFiniteError(SolverError):
+    """NaN or infinity appeared during a step; names the quantity and the terms that hold
+    it. The simulation adds the step number (``step`` is None until it does)."""
+
+    def __init__(self, quantity: str, terms: list[str], iteration: int, step: int | None = None):
+        self.quantity, self.terms, self.iteration, self.step = quantity, terms, iteration, step
+        super().__init__(str(self))
+
+    def __str__(self) -> str:
+        where = f"Newton iteration {self.iteration}"
+        if self.step is not None:
+            where = f"step {self.step}, {where}"
+        if self.terms:
+            culprit = "in the " + " and ".join(self.terms) + " term" + ("s" if len(self.terms) > 1 else "")
+        else:
+            culprit = "although every term is finite (the linear solve failed)"
+        return f"{where}: the {self.quantity} is not finite (NaN or infinity) {culprit}"
+
+
 class InfeasibleStartError(IpcsimError):
     """The initial state breaks what IPC guarantees (intersecting surfaces, a vertex below
     a plane, an inverted tet), so no step could keep it."""

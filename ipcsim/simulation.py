@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .contact.stiffness import balanced_kappa, kappa_bounds, should_double
-from .errors import InfeasibleStartError, SolverError
+from .errors import InfeasibleStartError, NonFiniteError, SolverError
 from .model.kinematics import kinematic_targets, nbc_accelerations
 from .potentials.body_force import BodyForce
 from .potentials.damping import Damping
@@ -102,7 +102,19 @@ class Simulation:
         self.state = State(model.initial_positions.copy(), model.initial_velocities.copy(),
                            a0, 0, kappa0)
         self._set_kappa(kappa0)
+        self.on_iteration = None  # called with each Newton iteration's log row (-v)
         self.check_initial_state()
+
+    def restore(self, checkpoint: dict):
+        """Continue from a state saved by ``io.checkpoint`` (the model must be the same)."""
+        n = len(self.model.mass)
+        if checkpoint["x"].shape != (n, 3):
+            raise ValueError(f"checkpoint has {len(checkpoint['x'])} vertices, the scene {n}")
+        dx = checkpoint["dx_elastic"]
+        self.state = State(checkpoint["x"].copy(), checkpoint["v"].copy(),
+                           checkpoint["a"].copy(), checkpoint["step"], checkpoint["kappa"],
+                           None if dx is None else dx.copy())
+        self._set_kappa(checkpoint["kappa"])
 
     # -- contact helpers -------------------------------------------------------------
     def _set_kappa(self, kappa: float):
@@ -236,10 +248,25 @@ class Simulation:
             return st.kappa != kappa
 
         def after_iteration(x, info):
-            info.update(step=st.step, kappa=st.kappa, **self.contact_statistics(x),
+            # step: the number the step will have in steps.csv once it completes
+            info.update(step=st.step + 1, kappa=st.kappa, **self.contact_statistics(x),
                         residual_ratio=info["step_inf_norm"] / tol if tol > 0 else np.nan)
             newton_rows.append(info)
+            if self.on_iteration is not None:
+                self.on_iteration(info)
 
+        try:
+            return self._solve_step(x_n, x0, kinematic, target, accel, tol,
+                                    before_iteration, after_iteration, newton_rows, wall0)
+        except NonFiniteError as exc:
+            exc.step = st.step + 1
+            raise
+        except SolverError as exc:
+            raise SolverError(f"step {st.step + 1}: {exc}") from None
+
+    def _solve_step(self, x_n, x0, kinematic, target, accel, tol, before_iteration,
+                    after_iteration, newton_rows, wall0) -> dict:
+        model, scene, st, h = self.model, self.model.scene, self.state, self.h
         friction_iterations = 0
         if self.friction is not None:
             self._lag_friction(x_n, x_n)
@@ -268,7 +295,7 @@ class Simulation:
                     warnings.warn(f"step {st.step}: friction lagging did not settle in "
                                   f"{FRICTION_ITERATION_CAP} updates", stacklevel=2)
         if not np.all(np.isfinite(x_new)):
-            raise SolverError(f"step {st.step}: positions became non-finite")
+            raise SolverError(f"step {st.step + 1}: positions became non-finite")
 
         v_new, a_new = self.integrator.update(x_new, x_n, st.v, st.a)
         v_new, a_new = fix_kinematic_velocities(v_new, a_new, kinematic, x_new, x_n, st.v, h)

@@ -77,6 +77,22 @@ class IncrementalPotential:
                 (static if getattr(t, "constant_pattern", False) else dynamic).append(h)
             return static, dynamic
 
+    def nonfinite_terms(self, x, p=None) -> list[str]:
+        """Names of the terms whose value, gradient or Hessian at ``x`` (or, with ``p``,
+        whose step bound along p) is NaN or infinite: what a failure report names."""
+        bad = []
+        for w, t in self.terms:
+            if w == 0.0:
+                continue
+            with np.errstate(all="ignore"):
+                finite = (np.isfinite(w * t.value(x)) and np.isfinite(w * t.gradient(x)).all()
+                          and np.isfinite(w * t.hessian(x).vals).all())
+            if finite and p is not None and getattr(t, "max_step", None) is not None:
+                finite = not np.isnan(t.max_step(x, p))
+            if not finite:
+                bad.append(getattr(t, "name", type(t).__name__))
+        return bad
+
     def max_step(self, x, p) -> float:
         """Largest feasible step fraction: CCD of contact terms, inversion bound of NH."""
         with self.timer("ccd_line_search"):

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import NonFiniteError, SolverError
 from .assembly import Assembler
 from .incremental import IncrementalPotential
 
@@ -82,6 +83,8 @@ class NewtonSolver:
             if before_iteration is not None and before_iteration(x):
                 energy = None  # the potential itself changed (κ)
             g = potential.gradient(x)
+            if not np.isfinite(g).all():
+                raise NonFiniteError("gradient", potential.nonfinite_terms(x), it)
             static, dynamic = potential.hessian(x)
             p = np.zeros(x.size)
             p_kin = target_flat[kin_dofs] - x.reshape(-1)[kin_dofs]
@@ -96,8 +99,16 @@ class NewtonSolver:
                 A, coupling = self.assembler.assemble(static, dynamic, free_index, n_free, p)
                 rhs = -g[free_dofs] - coupling
             with timer("solve"):
-                p[free_dofs] = self.linear_solver.solve(A, rhs) if n_free else 0.0
+                try:
+                    p[free_dofs] = self.linear_solver.solve(A, rhs) if n_free else 0.0
+                except SolverError:
+                    bad = potential.nonfinite_terms(x)
+                    if bad:  # a NaN in the matrix is the cause: name its term
+                        raise NonFiniteError("Hessian", bad, it) from None
+                    raise
 
+            if not np.isfinite(p).all():
+                raise NonFiniteError("Newton direction", potential.nonfinite_terms(x), it)
             step_norm = np.abs(p[free_dofs]).max(initial=0.0)
             info = {"iteration": it, "step_inf_norm": step_norm, "tolerance": tol,
                     "gradient_norm": float(np.linalg.norm(g[free_dofs]))}
@@ -108,6 +119,8 @@ class NewtonSolver:
                 # a converged direction is still taken: it is nearly free (no solve) and,
                 # at a step's first iteration, it is the whole motion of a slow body
                 alpha = min(1.0, potential.max_step(x, p))
+                if not alpha >= 0.0:  # NaN: a bound (CCD, inversion) saw a non-finite input
+                    raise NonFiniteError("step bound", potential.nonfinite_terms(x, p), it)
                 if result.kinematic_complete:
                     alpha, failed, energy = self._backtrack(potential, x, p, alpha, energy)
                     if failed:
