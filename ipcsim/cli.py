@@ -62,17 +62,30 @@ def build_parser() -> argparse.ArgumentParser:
                         "tets (exact predicates); exit 1 if any")
     p.set_defaults(func=_cmd_check)
 
-    p = sub.add_parser("run", help="simulate a scene and write frames and logs")
+    p = sub.add_parser("run", help="simulate a scene and write frames and logs",
+                       description="Simulate a scene and write frames and logs. Shows a "
+                       "progress bar on a terminal and a line every 5 %% of the steps (or "
+                       "30 s) otherwise. Ctrl-C stops after the current step (exit status "
+                       "130); --resume continues. Exit status: 0 done, 2 bad input, 3 the "
+                       "simulation failed (NaN, solver), 130 interrupted.")
     p.add_argument("scene", help="scene file (.txt or .toml)")
     p.add_argument("-o", "--output", metavar="DIR",
                    help="output folder (default: output/<scene-stem>)")
-    p.add_argument("--overwrite", action="store_true",
-                   help="replace an existing output folder")
+    again = p.add_mutually_exclusive_group()
+    again.add_argument("--overwrite", action="store_true",
+                       help="replace an existing output folder")
+    again.add_argument("--resume", action="store_true",
+                       help="continue the run in the output folder from its last checkpoint "
+                            "(written with every frame and on Ctrl-C), e.g. after a crash")
     p.add_argument("--steps", type=int, metavar="N",
-                   help="simulate only the first N steps (default: ceil(duration/dt))")
+                   help="stop after step N (default: ceil(duration/dt))")
+    p.add_argument("--render", action="store_true",
+                   help="also draw each frame as a PNG into OUT/render as it is written "
+                        "(the camera frames the initial scene; `ipcsim render` frames the "
+                        "whole run)")
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
     p.add_argument("-v", "--verbose", action="store_true",
-                   help="print every Newton iteration")
+                   help="print every Newton iteration as it happens")
     p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser("convert", help="convert a scene between the text and TOML forms")

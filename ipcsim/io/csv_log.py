@@ -100,7 +100,11 @@ class CsvLog:
     call ``close()``.
     """
 
-    def __init__(self, path: str | os.PathLike, columns: Sequence[str], *, fsync: bool = False):
+    def __init__(self, path: str | os.PathLike, columns: Sequence[str], *, fsync: bool = False,
+                 keep_rows=None):
+        """``keep_rows(row) -> bool``: continue an existing file (a resumed run), keeping
+        the rows it accepts (``row`` maps column to cell text) and dropping the rest; the
+        file's header must be this log's columns."""
         if len(set(columns)) != len(columns):
             raise ValueError("CSV columns must be unique")
         self.path = Path(path)
@@ -108,9 +112,30 @@ class CsvLog:
         self._known = frozenset(self.columns)
         self.fsync = fsync
         self.rows_written = 0
+        header = ",".join(self.columns)
+        if keep_rows is not None:
+            self._keep(header, keep_rows)
+            self._file = open(self.path, "a", encoding="utf-8", newline="")
+            return
         # newline="": rows end in "\n" on every platform
         self._file = open(self.path, "w", encoding="utf-8", newline="")
-        self._write_line(",".join(self.columns))
+        self._write_line(header)
+
+    def _keep(self, header: str, keep_rows) -> None:
+        """Rewrite the file (atomically) with only the rows ``keep_rows`` accepts; a
+        last line cut short by a crash is dropped too."""
+        from .atomic import atomic_write_text
+
+        text = self.path.read_text(encoding="utf-8") if self.path.is_file() else header + "\n"
+        lines = text.split("\n")
+        if lines[0] != header:
+            raise ValueError(f"{self.path}: its columns are not this version's; "
+                             "run again without --resume")
+        complete = lines[1:-1]  # text after the last newline is an unfinished row
+        kept = [ln for ln in complete
+                if len(cells := ln.split(",")) == len(self.columns)
+                and keep_rows(dict(zip(self.columns, cells)))]
+        atomic_write_text(self.path, "\n".join([header, *kept]) + "\n", fsync=self.fsync)
 
     def _write_line(self, line: str) -> None:
         # one write per line, then flush: a reader never sees a partial row mid-run
@@ -152,8 +177,8 @@ class StepLog(CsvLog):
 
     FILE_NAME = "steps.csv"
 
-    def __init__(self, path: str | os.PathLike, *, fsync: bool = False):
-        super().__init__(path, STEP_COLUMNS, fsync=fsync)
+    def __init__(self, path: str | os.PathLike, *, fsync: bool = False, keep_rows=None):
+        super().__init__(path, STEP_COLUMNS, fsync=fsync, keep_rows=keep_rows)
 
 
 class NewtonLog(CsvLog):
@@ -161,8 +186,8 @@ class NewtonLog(CsvLog):
 
     FILE_NAME = "newton.csv"
 
-    def __init__(self, path: str | os.PathLike, *, fsync: bool = False):
-        super().__init__(path, NEWTON_COLUMNS, fsync=fsync)
+    def __init__(self, path: str | os.PathLike, *, fsync: bool = False, keep_rows=None):
+        super().__init__(path, NEWTON_COLUMNS, fsync=fsync, keep_rows=keep_rows)
 
 
 def _is_int_text(cell: str) -> bool:

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from ..errors import IpcsimError
 from .atomic import is_temporary_name
+from .checkpoint import CHECKPOINT_NAME
 from .csv_log import NewtonLog, StepLog
 from .run_info import RUN_INFO_NAME
 from .vtk import FRAMES_DIR, SERIES_NAME
@@ -34,6 +35,7 @@ OWN_FILES: tuple[str, ...] = (
     NewtonLog.FILE_NAME,
     RUN_INFO_NAME,
     "scene.toml",
+    CHECKPOINT_NAME,
 )
 
 
@@ -75,7 +77,7 @@ def prepare_output_folder(path: str | os.PathLike, overwrite: bool) -> Path:
 
     An existing folder that is not empty is refused with :class:`OutputFolderError`
     unless ``overwrite`` is true; then ipcsim's own files (``frames/`` contents,
-    ``steps.csv``, ``newton.csv``, ``run.json``, ``scene.toml``, leftover temporary
+    ``steps.csv``, ``newton.csv``, ``run.json``, ``scene.toml``, ``checkpoint.npz``, leftover temporary
     files) are removed and everything else is left alone.
     """
     path = Path(path)

@@ -262,6 +262,21 @@ class FrameWriter:
         self._write_series()
         return path
 
+    def resume(self, last_index: int, time_of) -> None:
+        """Continue a run whose frames are already in the folder: frames up to
+        ``last_index`` join the series (``time_of(index)`` gives their time), later ones
+        are removed (the steps they show are computed again)."""
+        for path in sorted(self.frames_dir.glob("frame_*.vtu")):
+            try:
+                index = int(path.stem.split("_", 1)[1])
+            except ValueError:
+                continue
+            if index > last_index:
+                path.unlink()
+            else:
+                self._series[index] = (float(time_of(index)), path.name)
+        self._write_series()
+
     def _write_series(self) -> None:
         lines = [
             '<?xml version="1.0"?>\n',
