@@ -30,6 +30,8 @@ __all__ = [
     "RenderError",
     "RenderOptions",
     "RunFrames",
+    "FrameRenderer",
+    "LiveRenderer",
     "body_rgb",
     "load_run_frames",
     "parse_frame_range",
@@ -237,10 +239,7 @@ def _write_mp4(path: Path, images: list[np.ndarray], fps: float) -> None:
                 w.append_data(im)
 
 
-def render_run(folder, options: RenderOptions | None = None, say=print) -> dict:
-    """Render the run in ``folder``; returns ``{"pngs": [...], "gif": path|None,
-    "mp4": path|None, "gif_writer": name|None}``."""
-    opt = options or RenderOptions()
+def _validate(opt: RenderOptions) -> tuple[int, int]:
     if opt.every < 1:
         raise RenderError(f"--every must be at least 1, got {opt.every}")
     if opt.field not in ("none", "velocity"):
@@ -252,6 +251,124 @@ def render_run(folder, options: RenderOptions | None = None, say=print) -> dict:
     w, h = (int(v) for v in opt.size)
     if not (16 <= w <= 8192 and 16 <= h <= 8192):
         raise RenderError(f"--size must be between 16 and 8192 pixels each, got {w} {h}")
+    return w, h
+
+
+def _scene_planes(folder: Path, say) -> list:
+    scene_path = folder / "scene.toml"
+    if scene_path.is_file():
+        from ..scene import load_scene
+
+        return list(load_scene(scene_path).planes)
+    say(f"warning: {scene_path} not found; planes are not drawn")
+    return []
+
+
+class FrameRenderer:
+    """One offscreen plotter for the mesh of a run's ``first`` frame (meshio), with the
+    camera fixed on the box [lo, hi]; ``draw(points, step, t, speeds)`` returns the RGB
+    image of one frame. ``vmax`` is the top of the |velocity| colour scale (``--field
+    velocity``)."""
+
+    def __init__(self, first, planes, lo, hi, opt: RenderOptions, vmax: float | None = None):
+        w, h = _validate(opt)
+        n = len(first.points)
+        body = np.asarray(first.point_data.get("body_id", np.zeros(n)), dtype=np.int64).ravel()
+        kin = np.asarray(first.point_data.get("kinematic", np.zeros(n)), dtype=np.int64).ravel()
+        # a body is an obstacle when every vertex of it is prescribed
+        nb = int(body.max()) + 1 if n else 0
+        moving = np.bincount(body, weights=(kin == 0), minlength=nb) > 0
+        obstacle_vertex = ~moving[body]
+
+        from ..model.surface import boundary_triangles
+
+        tris = np.concatenate([boundary_triangles(_cells(first, "tetra")),
+                               _cells(first, "triangle")])
+        lines, verts = _cells(first, "line"), _cells(first, "vertex")
+        tri_obst = obstacle_vertex[tris].all(axis=1) if len(tris) else np.zeros(0, bool)
+        center = (lo + hi) / 2
+        extent = float(np.max(hi - lo)) or 1.0
+        radius = 0.5 * float(np.linalg.norm(hi - lo)) or 0.5
+
+        self._restore = _quiet_vtk()
+        import pyvista as pv
+
+        pv.OFF_SCREEN = True
+        try:
+            plotter = pv.Plotter(off_screen=True, window_size=(w, h))
+        except Exception as exc:
+            self._restore()
+            raise RenderError(f"cannot open an offscreen render window: {exc}") from exc
+        plotter.set_background("white")
+
+        def poly(mask_tris, with_lines):
+            p = pv.PolyData(np.asarray(first.points, dtype=float),
+                            faces=_poly_cells(tris[mask_tris]) if mask_tris.any() else None)
+            if with_lines and len(lines):
+                p.lines = _poly_cells(lines)
+            if with_lines and len(verts):
+                p.verts = _poly_cells(verts)
+            return p
+
+        self.body_mesh = poly(~tri_obst, True)
+        self.obst_mesh = poly(tri_obst, False) if tri_obst.any() else None
+        self.colour_by_speed = vmax is not None
+        if not self.colour_by_speed:
+            rgb = PALETTE[body % len(PALETTE)].copy()
+            rgb[obstacle_vertex] = OBSTACLE_RGB
+            self.body_mesh.point_data["rgb"] = rgb
+            plotter.add_mesh(self.body_mesh, scalars="rgb", rgb=True, smooth_shading=False,
+                             line_width=3, point_size=8, render_points_as_spheres=True)
+        else:
+            self.body_mesh.point_data["|v| m/s"] = np.zeros(n)
+            plotter.add_mesh(self.body_mesh, scalars="|v| m/s", cmap="viridis",
+                             clim=(0.0, vmax), line_width=3, point_size=8,
+                             render_points_as_spheres=True,
+                             scalar_bar_args={"color": "black", "vertical": True,
+                                              "title": "|v| m/s", "position_x": 0.88,
+                                              "position_y": 0.2, "width": 0.06,
+                                              "height": 0.6, "label_font_size": 10,
+                                              "title_font_size": 12})
+        if self.obst_mesh is not None:
+            plotter.add_mesh(self.obst_mesh, color=np.array(OBSTACLE_RGB) / 255)
+        for pl in planes:
+            plotter.add_mesh(_plane_tile(pv, pl, center, extent),
+                             color=np.array(PLANE_RGB) / 255, opacity=0.6)
+
+        pos, up = _camera(center, radius, opt.azimuth, opt.elevation, opt.zoom, w / h)
+        plotter.camera.position = tuple(pos)
+        plotter.camera.focal_point = tuple(center)
+        plotter.camera.up = up
+        plotter.camera.view_angle = 30.0
+        self.plotter = plotter
+
+    def draw(self, points, step: int, t: float, speeds=None) -> np.ndarray:
+        pts = np.asarray(points, dtype=float)
+        self.body_mesh.points = pts
+        if self.obst_mesh is not None:
+            self.obst_mesh.points = pts
+        if self.colour_by_speed and speeds is not None:
+            self.body_mesh.point_data["|v| m/s"] = speeds
+        tt = f"t = {t:.3f} s" if not math.isnan(t) else "t = ?"
+        # same name: replaces the previous frame's stamp
+        self.plotter.add_text(f"{tt}   step {step}", position="upper_left", font_size=12,
+                              color="black", name="time_stamp")
+        self.plotter.renderer.ResetCameraClippingRange()
+        self.plotter.render()
+        return np.asarray(self.plotter.screenshot(return_img=True))[:, :, :3].copy()
+
+    def close(self) -> None:
+        if self.plotter is not None:
+            self.plotter.close()
+            self.plotter = None
+            self._restore()
+
+
+def render_run(folder, options: RenderOptions | None = None, say=print) -> dict:
+    """Render the run in ``folder``; returns ``{"pngs": [...], "gif": path|None,
+    "mp4": path|None, "gif_writer": name|None}``."""
+    opt = options or RenderOptions()
+    _validate(opt)
     if opt.mp4:
         _check_mp4_encoder()  # before spending time on rendering
 
@@ -265,15 +382,7 @@ def render_run(folder, options: RenderOptions | None = None, say=print) -> dict:
                           f"(the run has steps {run.steps[0]}..{run.steps[-1]})")
     out_dir = Path(opt.output) if opt.output is not None else run.folder / "render"
     out_dir.mkdir(parents=True, exist_ok=True)
-
-    planes = []
-    scene_path = run.folder / "scene.toml"
-    if scene_path.is_file():
-        from ..scene import load_scene
-
-        planes = list(load_scene(scene_path).planes)
-    else:
-        say(f"warning: {scene_path} not found; planes are not drawn")
+    planes = _scene_planes(run.folder, say)
 
     # Read every selected frame first: the camera and the colour scale cover the whole run.
     meshes = [_read_frame(run.paths[i]) for i in pick]
@@ -283,29 +392,13 @@ def render_run(folder, options: RenderOptions | None = None, say=print) -> dict:
         if len(m.points) != n:
             raise RenderError(f"{run.paths[i]}: {len(m.points)} vertices, the first frame "
                               f"has {n}")
-    body = np.asarray(first.point_data.get("body_id", np.zeros(n)), dtype=np.int64).ravel()
-    kin = np.asarray(first.point_data.get("kinematic", np.zeros(n)), dtype=np.int64).ravel()
-    # a body is an obstacle when every vertex of it is prescribed
-    nb = int(body.max()) + 1 if n else 0
-    moving = np.bincount(body, weights=(kin == 0), minlength=nb) > 0
-    obstacle_vertex = ~moving[body]
-
-    from ..model.surface import boundary_triangles
-
-    tris = np.concatenate([boundary_triangles(_cells(first, "tetra")), _cells(first, "triangle")])
-    lines, verts = _cells(first, "line"), _cells(first, "vertex")
-    tri_obst = obstacle_vertex[tris].all(axis=1) if len(tris) else np.zeros(0, bool)
-
     allpts = np.concatenate([m.points for m in meshes])
     finite = np.isfinite(allpts).all(axis=1)
     if not finite.any():
         raise RenderError(f"{run.folder}: the frames hold no finite positions")
     lo, hi = allpts[finite].min(axis=0), allpts[finite].max(axis=0)
-    center = (lo + hi) / 2
-    extent = float(np.max(hi - lo)) or 1.0
-    radius = 0.5 * float(np.linalg.norm(hi - lo)) or 0.5
 
-    speeds = None
+    speeds, vmax = [None] * len(meshes), None
     if opt.field == "velocity":
         speeds = [np.linalg.norm(np.asarray(m.point_data.get("velocity", np.zeros((n, 3)))),
                                  axis=1) for m in meshes]
@@ -319,80 +412,18 @@ def render_run(folder, options: RenderOptions | None = None, say=print) -> dict:
             t = float(np.ravel(tv)[0]) if tv is not None and np.size(tv) else math.nan
         times.append(t)
 
-    restore = _quiet_vtk()
+    renderer = FrameRenderer(first, planes, lo, hi, opt, vmax)
+    pngs, images = [], []
     try:
-        import pyvista as pv
-
-        pv.OFF_SCREEN = True
-        try:
-            plotter = pv.Plotter(off_screen=True, window_size=(w, h))
-        except Exception as exc:
-            raise RenderError(f"cannot open an offscreen render window: {exc}") from exc
-        plotter.set_background("white")
-
-        def poly(mask_tris, with_lines):
-            p = pv.PolyData(np.asarray(first.points, dtype=float),
-                            faces=_poly_cells(tris[mask_tris]) if mask_tris.any() else None)
-            if with_lines and len(lines):
-                p.lines = _poly_cells(lines)
-            if with_lines and len(verts):
-                p.verts = _poly_cells(verts)
-            return p
-
-        body_mesh = poly(~tri_obst, True)
-        obst_mesh = poly(tri_obst, False) if tri_obst.any() else None
-        if speeds is None:
-            rgb = PALETTE[body % len(PALETTE)].copy()
-            rgb[obstacle_vertex] = OBSTACLE_RGB
-            body_mesh.point_data["rgb"] = rgb
-            plotter.add_mesh(body_mesh, scalars="rgb", rgb=True, smooth_shading=False,
-                             line_width=3, point_size=8, render_points_as_spheres=True)
-        else:
-            body_mesh.point_data["|v| m/s"] = speeds[0]
-            plotter.add_mesh(body_mesh, scalars="|v| m/s", cmap="viridis",
-                             clim=(0.0, vmax), line_width=3, point_size=8,
-                             render_points_as_spheres=True,
-                             scalar_bar_args={"color": "black", "vertical": True,
-                                              "title": "|v| m/s", "position_x": 0.88,
-                                              "position_y": 0.2, "width": 0.06,
-                                              "height": 0.6, "label_font_size": 10,
-                                              "title_font_size": 12})
-        if obst_mesh is not None:
-            plotter.add_mesh(obst_mesh, color=np.array(OBSTACLE_RGB) / 255)
-        for pl in planes:
-            plotter.add_mesh(_plane_tile(pv, pl, center, extent),
-                             color=np.array(PLANE_RGB) / 255, opacity=0.6)
-
-        pos, up = _camera(center, radius, opt.azimuth, opt.elevation, opt.zoom, w / h)
-        plotter.camera.position = tuple(pos)
-        plotter.camera.focal_point = tuple(center)
-        plotter.camera.up = up
-        plotter.camera.view_angle = 30.0
-
-        pngs, images = [], []
         for k, (i, m) in enumerate(zip(pick, meshes)):
-            pts = np.asarray(m.points, dtype=float)
-            body_mesh.points = pts
-            if obst_mesh is not None:
-                obst_mesh.points = pts
-            if speeds is not None:
-                body_mesh.point_data["|v| m/s"] = speeds[k]
-            step, t = run.steps[i], times[k]
-            tt = f"t = {t:.3f} s" if not math.isnan(t) else "t = ?"
-            # same name: replaces the previous frame's stamp
-            plotter.add_text(f"{tt}   step {step}", position="upper_left", font_size=12,
-                             color="black", name="time_stamp")
-            plotter.renderer.ResetCameraClippingRange()
-            plotter.render()
-            img = np.asarray(plotter.screenshot(return_img=True))[:, :, :3].copy()
+            img = renderer.draw(m.points, run.steps[i], times[k], speeds[k])
             png = out_dir / (run.paths[i].stem + ".png")
             _save_png(png, img)
             pngs.append(png)
             if opt.gif or opt.mp4:
                 images.append(img)
-        plotter.close()
     finally:
-        restore()
+        renderer.close()
 
     result = {"pngs": pngs, "gif": None, "mp4": None, "gif_writer": None}
     dts = np.diff(times) if len(times) > 1 else np.array([0.04])
@@ -406,3 +437,36 @@ def render_run(folder, options: RenderOptions | None = None, say=print) -> dict:
         _write_mp4(mp4, images, fps=min(60.0, max(1.0, 1.0 / float(np.median(dts)))))
         result["mp4"] = mp4
     return result
+
+
+class LiveRenderer:
+    """``ipcsim run --render``: a PNG per frame as the run writes it, into OUT/render.
+
+    The whole run is not known yet, so the camera frames the initial frame together with
+    the origins of the scene's planes (a falling body stays in view down to the ground)."""
+
+    def __init__(self, folder, options: RenderOptions | None = None):
+        self.folder = Path(folder)
+        self.options = options or RenderOptions()
+        self.out_dir = self.folder / "render"
+        self._renderer = None
+
+    def _start(self):
+        first = _read_frame(self.folder / FRAMES_DIR / "frame_000000.vtu")
+        planes = _scene_planes(self.folder, lambda *a: None)
+        pts = np.concatenate([first.points] + [np.asarray([p.origin], float) for p in planes])
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+        self._renderer = FrameRenderer(first, planes, lo, hi, self.options)
+
+    def render(self, step: int, t: float, points) -> Path:
+        if self._renderer is None:
+            self._start()
+        png = self.out_dir / (Path(f"frame_{int(step):06d}").name + ".png")
+        _save_png(png, self._renderer.draw(points, step, t))
+        return png
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None

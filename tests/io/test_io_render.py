@@ -81,3 +81,15 @@ def test_mp4_without_encoder_is_a_clear_error(two_body_run, capsys):
         pass
     assert main(["render", str(two_body_run), "--mp4", "-q"]) == 2
     assert "imageio-ffmpeg" in capsys.readouterr().err
+
+
+def test_run_render_draws_each_frame_as_it_is_written(two_body_run, tmp_path):
+    scene = two_body_run.parent / "two.txt"
+    out = tmp_path / "live"
+    assert main(["run", str(scene), "-o", str(out), "--steps", "2", "-q", "--render"]) == 0
+    pngs = sorted((out / "render").glob("frame_*.png"))
+    assert [p.name for p in pngs] == [f"frame_00000{i}.png" for i in range(3)]
+    img = np.asarray(Image.open(pngs[-1]).convert("RGB"))
+    left, right = _hue_mask(img, PALETTE[0]), _hue_mask(img, PALETTE[1])
+    assert left.sum() > 200 and right.sum() > 200
+    assert np.nonzero(left)[1].mean() < np.nonzero(right)[1].mean()  # default camera, azimuth 30
