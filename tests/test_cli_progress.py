@@ -1,0 +1,59 @@
+"""What `ipcsim run` prints while it works: periodic lines off a terminal, a live bar on
+one, per-iteration lines with -v, nothing with -q."""
+
+from __future__ import annotations
+
+import io
+import re
+
+import pytest
+
+from ipcsim.cli import main
+from ipcsim.commands.progress import RunProgress
+from ipcsim.model.generate import box_tet_mesh, write_msh
+
+
+@pytest.fixture
+def drop_scene(tmp_path):
+    points, tets = box_tet_mesh(1, 1, 1, size=(0.2, 0.2, 0.2), origin=(-0.1, 0.0, -0.1))
+    write_msh(tmp_path / "cube.msh", points, tets)
+    scene = tmp_path / "drop.txt"
+    scene.write_text("shapes input 1\ncube.msh 0 0.01 0  0 0 0  1 1 1\n"
+                     "selfCollisionOff\nground 0 0\ntime 1 0.01\n")
+    return scene
+
+
+def test_plain_lines_every_five_percent_when_not_a_terminal(drop_scene, tmp_path, capsys):
+    assert main(["run", str(drop_scene), "-o", str(tmp_path / "a")]) == 0
+    lines = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("step ")]
+    steps = [int(re.match(r"step (\d+)/100", ln).group(1)) for ln in lines]
+    assert steps[-1] == 100 and 20 <= len(steps) <= 21  # 5 %: every 5 steps, and the last
+    assert all("newton=" in ln and "contacts=" in ln and "ETA=" in ln for ln in lines)
+
+
+def test_quiet_prints_nothing_and_verbose_prints_iterations(drop_scene, tmp_path, capsys):
+    assert main(["run", str(drop_scene), "-o", str(tmp_path / "q"), "-q", "--steps", "3"]) == 0
+    assert capsys.readouterr().out == ""
+    assert main(["run", str(drop_scene), "-o", str(tmp_path / "v"), "-v", "--steps", "3"]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"step 1 it 0: alpha=\S+ \|p\|=\S+ tol=\S+ contacts=0", out)
+    assert "step 3 it " in out
+
+
+class _Terminal(io.StringIO):
+    def isatty(self):
+        return True
+
+
+def test_bar_on_a_terminal_shows_step_time_iterations_contacts_and_eta():
+    term = _Terminal()
+    assert RunProgress.mode_for(False, term) == "bar"
+    assert RunProgress.mode_for(True, term) == "off"
+    assert RunProgress.mode_for(False, io.StringIO()) == "lines"
+    bar = RunProgress(0, 10, "bar", term)
+    for k in range(1, 6):
+        bar.update(k, 0.01 * k, 7, 42)
+    bar.close()
+    text = term.getvalue()
+    assert "step 5/10" in text and "t=0.05s" in text
+    assert "newton=7" in text and "contacts=42" in text and "ETA" in text
