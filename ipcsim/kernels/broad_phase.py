@@ -283,3 +283,36 @@ def gather_rows(first, second, pairs):
         for c in range(ks):
             rows[r, kf + c] = second[pairs[r, 1], c]
     return rows
+
+
+@njit(cache=True, parallel=True)
+def swept_pairs_within(x0, x1, pairs, split, inflation):
+    """Mask of the pairs (rows of 4 vertices: the first ``split`` form one primitive, the
+    rest the other) whose boxes over the motion x0 -> x1, grown by inflation/2, overlap:
+    the same test as the broad phase, applied to a known list of pairs (cheaper than a new
+    query when the list is a superset, as for a shorter part of an already swept step)."""
+    m = pairs.shape[0]
+    keep = np.empty(m, dtype=np.bool_)
+    r = 0.5 * inflation
+    for i in prange(m):
+        ok = True
+        for a in range(3):
+            lo0 = np.inf
+            hi0 = -np.inf
+            lo1 = np.inf
+            hi1 = -np.inf
+            for j in range(4):
+                v = pairs[i, j]
+                lo = min(x0[v, a], x1[v, a])
+                hi = max(x0[v, a], x1[v, a])
+                if j < split:
+                    lo0 = min(lo0, lo)
+                    hi0 = max(hi0, hi)
+                else:
+                    lo1 = min(lo1, lo)
+                    hi1 = max(hi1, hi)
+            if not (lo0 - r <= hi1 + r and lo1 - r <= hi0 + r):
+                ok = False
+                break
+        keep[i] = ok
+    return keep

@@ -22,6 +22,7 @@ import numpy as np
 from ..contact.candidates import find_candidates
 from ..kernels.ccd import DEFAULT_MAX_ITERATIONS, DEFAULT_MIN_GAP_FRACTION, ccd_max_step
 from ..kernels import contact_barrier as kb
+from ..kernels.broad_phase import swept_pairs_within
 from ..kernels.mollifier import edge_edge_mollifier_thresholds
 from .base import Triplets
 
@@ -84,7 +85,17 @@ class MeshContact:
         pt, ee, _ = self._swept  # swept boxes grown by d̂: a superset of CCD's candidates
         if len(pt) == 0 and len(ee) == 0:
             return 1.0
-        return ccd_max_step(x, x1, pt, ee, DEFAULT_MIN_GAP_FRACTION, DEFAULT_MAX_ITERATIONS)
+        alpha = ccd_max_step(x, x1, pt, ee, DEFAULT_MIN_GAP_FRACTION, DEFAULT_MAX_ITERATIONS)
+        if alpha < 1.0:
+            # the line search only visits [x, x + αp]: with large steps CCD often cuts p
+            # to a small α, and the pairs swept over that part alone are far fewer, which
+            # makes every energy evaluation of the line search cheaper
+            xa = x + alpha * p.reshape(-1, 3)
+            pt, ee, eps = self._swept
+            keep_pt = swept_pairs_within(x, xa, pt, 1, self.dhat)
+            keep_ee = swept_pairs_within(x, xa, ee, 2, self.dhat)
+            self._swept = pt[keep_pt], ee[keep_ee], eps[keep_ee]
+        return alpha
 
     # -- statistics ----------------------------------------------------------------------
     def statistics(self, x):

@@ -277,3 +277,23 @@ def test_rejects_bad_input():
         find_candidates(x, [0], [[0, 1]], [[0, 1, 3]], 0.1)
     with pytest.raises(ValueError):
         find_candidates(x, [0], [[0, 1]], [[0, 1, 2]], -1.0)
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_filtering_a_swept_set_to_part_of_the_step_equals_a_new_query(name):
+    """The line search's shortcut: pairs swept over x -> x1, filtered to x -> x + α(x1 − x),
+    are exactly the pairs a broad phase over the shorter motion finds."""
+    rng, x, tris, body, kin = _scene(name, 3)
+    x1 = x + 0.1 * rng.normal(size=x.shape)
+    edges = _edges_of(tris)
+    verts = np.unique(tris)
+    pt, ee = find_candidates(x, verts, edges, tris, 0.01, body, True, kin, x1=x1)
+    for alpha in (0.5, 0.05, 0.0):
+        xa = x + alpha * (x1 - x)
+        want_pt, want_ee = find_candidates(x, verts, edges, tris, 0.01, body, True, kin, x1=xa)
+        got_pt = pt[bp.swept_pairs_within(x, xa, pt, 1, 0.01)]
+        got_ee = ee[bp.swept_pairs_within(x, xa, ee, 2, 0.01)]
+        assert np.array_equal(_sorted(got_pt), _sorted(want_pt))
+        assert np.array_equal(_sorted(got_ee), _sorted(want_ee))
+        if alpha == 0.5 and name != "degenerate":  # (a lattice: everything overlaps)
+            assert 0 < len(want_pt) < len(pt)  # the filter removed something, kept something
