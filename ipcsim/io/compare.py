@@ -1,14 +1,23 @@
-"""Regression comparison of two runs (or of a run and the original IPC program's output).
+"""Regression comparison of two runs (or of a run and a golden reference, or of a run and
+the original IPC program's output).
 
-Positions: for every frame step present in both, the largest and the RMS vertex distance
+Positions: for every frame step compared, the largest and the RMS vertex distance
 |x_A - x_B|, divided by the scene size (bounding-box diagonal of A's first frame). A
 frame differs when some vertex moved more than ``atol + rtol * size``.
 Logs: Newton iterations and contact counts of every step in ``steps.csv`` must be equal.
 
-B may be a folder of the original program's ``<n>.obj`` files (the surface after n
-steps: ``v`` lines for the vertices used by some surface triangle, in increasing global
-vertex order); A's surface vertices (of boundary triangles of tets and of triangle cells)
-are then compared by index, and there are no logs to compare.
+A is always a run folder. B is read into a :class:`Reference` (some frames' positions,
+optionally of only some of A's vertices, and the logged counts), so one comparison serves
+every kind of B:
+
+* a run folder: every frame and every vertex; both runs must have the same frames;
+* a golden reference (a ``.json`` file, see :func:`golden_from_run`): a few frames of a
+  few sampled vertices and the per-step counts of a short run, a few KB kept in a
+  repository (tests/regression/); its frames must be among A's;
+* a folder of the original program's ``<n>.obj`` files (the surface after n steps: ``v``
+  lines for the vertices used by some surface triangle, in increasing global vertex
+  order); A's surface vertices (of boundary triangles of tets and of triangle cells) are
+  compared by index, every frame of A must have its ``<n>.obj``, and there are no logs.
 
 Verdict: 0 same within tolerance, 1 different, 2 cannot compare (raised as
 :class:`CompareError`).
@@ -16,21 +25,27 @@ Verdict: 0 same within tolerance, 1 different, 2 cannot compare (raised as
 
 from __future__ import annotations
 
+import hashlib
+import json
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import IpcsimError
-from .atomic import atomic_path
+from .atomic import atomic_path, atomic_write_text
 from .render import load_run_frames, RenderError
 
-__all__ = ["COUNT_COLUMNS", "CompareError", "CompareResult", "compare_runs", "plot_result",
-           "read_obj_vertices"]
+__all__ = ["COUNT_COLUMNS", "GOLDEN_FORMAT", "CompareError", "CompareResult", "Reference",
+           "compare_runs", "golden_from_run", "mesh_signature", "plot_result",
+           "read_golden", "read_obj_vertices", "read_reference", "write_golden"]
 
 COUNT_COLUMNS = ("newton_iterations", "contacts_plane", "contacts_point_triangle",
                  "contacts_edge_edge", "contacts_total")
+GOLDEN_FORMAT = "ipcsim-golden-1"
 _OBJ_RE = re.compile(r"^(\d+)\.obj$")
 
 
@@ -133,81 +148,151 @@ def _names(steps) -> str:
     return shown + (f" and {len(steps) - 5} more" if len(steps) > 5 else "")
 
 
-def compare_runs(a, b, rtol: float = 1e-6, atol: float = 0.0) -> CompareResult:
-    """Compare output folder ``a`` with ``b`` (a run or original ``<n>.obj`` files)."""
+def _positions(path: Path) -> np.ndarray:
+    return np.asarray(_read_vtu(path).points, dtype=np.float64)
+
+
+def _read_log(folder: Path, which: str) -> dict[str, np.ndarray]:
+    """The step numbers and :data:`COUNT_COLUMNS` of ``folder/steps.csv``."""
     from .csv_log import read_csv
 
-    if not (rtol >= 0 and atol >= 0):
-        raise CompareError(f"tolerances must be non-negative (rtol {rtol}, atol {atol})")
-    a, b = Path(a), Path(b)
+    p = folder / "steps.csv"
+    if not p.is_file():
+        raise CompareError(f"missing file: {which}'s {p}")
+    try:
+        log = read_csv(p)
+    except (ValueError, OSError) as exc:
+        raise CompareError(f"{which}: {p}: {exc}") from exc
+    absent = [c for c in ("step", *COUNT_COLUMNS) if c not in log]
+    if absent:
+        raise CompareError(f"{which}'s steps.csv lacks the columns {', '.join(absent)}")
+    return {c: log[c] for c in ("step", *COUNT_COLUMNS)}
+
+
+def mesh_signature(mesh) -> dict:
+    """Vertex count, cell counts and a SHA-256 of the connectivity (little-endian int64,
+    cell types in name order): equal signatures mean the same mesh, in a few bytes that a
+    golden reference can carry."""
+    cells = _cells(mesh)
+    digest = hashlib.sha256()
+    for kind in sorted(cells):
+        digest.update(kind.encode())
+        digest.update(np.ascontiguousarray(cells[kind], dtype="<i8").tobytes())
+    return {"vertices": len(mesh.points),
+            "cells": {kind: len(cells[kind]) for kind in sorted(cells)},
+            "sha256": digest.hexdigest()}
+
+
+@dataclass
+class Reference:
+    """B as the comparison sees it, whatever it was read from: some frames' positions
+    (optionally of only some of A's vertices) and the logged counts.
+
+    ``kind`` says which frames are compared: a ``"run"`` must have exactly A's frames, a
+    ``"golden"`` reference's few frames must be among A's, ``"original"`` output must have
+    every frame of A (and holds A's surface vertices only, found from A's mesh)."""
+
+    kind: str
+    frames: dict[int, Callable[[], np.ndarray]]  # step -> reads that frame's positions
+    names: dict[int, str]  # step -> B's frame as messages name it
+    source: str = ""  # where B was read from, for messages
+    index: np.ndarray | None = None  # A's vertices the positions are of; None: all
+    mesh: dict | None = None  # the mesh_signature A must have; None: not checked
+    log: dict[str, np.ndarray] | None = None  # step and COUNT_COLUMNS; None: no logs
+
+
+def read_reference(b) -> Reference:
+    """B for :func:`compare_runs`: a run folder, a folder of original ``<n>.obj`` files or
+    a golden reference file."""
+    b = Path(b)
+    if b.is_file():
+        return read_golden(b)
     if not b.is_dir():
         raise CompareError(f"B: {b}: no such folder")
-    run_a = _run_frames(a, "A")
-    res = CompareResult()
     if (b / "frames").is_dir():
-        run_b = _run_frames(b, "B")
-        only_a = set(run_a.steps) - set(run_b.steps)
-        only_b = set(run_b.steps) - set(run_a.steps)
-        if only_a or only_b:
-            msg = []
-            if only_a:
-                msg.append(f"{_names(only_a)} in A but not in B")
-            if only_b:
-                msg.append(f"{_names(only_b)} in B but not in A")
-            raise CompareError("missing frames: " + "; ".join(msg))
-        paths_b = dict(zip(run_b.steps, run_b.paths))
-        original = False
-    else:
-        paths_b = _original_frames(b)
-        if not paths_b:
-            raise CompareError(f"B: {b} holds neither frames/frame_*.vtu nor original "
-                               "<n>.obj files")
-        missing = set(run_a.steps) - set(paths_b)
+        run = _run_frames(b, "B")
+        paths = dict(zip(run.steps, run.paths))
+        return Reference("run", {s: partial(_positions, p) for s, p in paths.items()},
+                         {s: p.name for s, p in paths.items()}, source=str(b),
+                         mesh=mesh_signature(_read_vtu(run.paths[0])), log=_read_log(b, "B"))
+    paths = _original_frames(b)
+    if not paths:
+        raise CompareError(f"B: {b} holds neither frames/frame_*.vtu nor original "
+                           "<n>.obj files")
+    return Reference("original", {s: partial(read_obj_vertices, p) for s, p in paths.items()},
+                     {s: p.name for s, p in paths.items()}, source=str(b))
+
+
+def _compared_steps(run_a, ref: Reference) -> list[int]:
+    in_a, in_b = set(run_a.steps), set(ref.frames)
+    if ref.kind == "golden":
+        if in_b - in_a:
+            raise CompareError(f"missing frames: {_names(in_b - in_a)} in the golden "
+                               f"reference {ref.source} but not in A")
+        return sorted(in_b)
+    if ref.kind == "original":
+        missing = in_a - in_b
         if missing:
-            raise CompareError(f"missing frames: B ({b}) has no <n>.obj for steps "
+            raise CompareError(f"missing frames: B ({ref.source}) has no <n>.obj for steps "
                                + ", ".join(str(s) for s in sorted(missing)[:10])
                                + (" ..." if len(missing) > 10 else ""))
-        original = True
-    res.original_format = original
+        return list(run_a.steps)
+    if in_a != in_b:
+        msg = []
+        if in_a - in_b:
+            msg.append(f"{_names(in_a - in_b)} in A but not in B")
+        if in_b - in_a:
+            msg.append(f"{_names(in_b - in_a)} in B but not in A")
+        raise CompareError("missing frames: " + "; ".join(msg))
+    return list(run_a.steps)
+
+
+def compare_runs(a, b, rtol: float = 1e-6, atol: float = 0.0) -> CompareResult:
+    """Compare output folder ``a`` with ``b``: a run folder, a golden reference file,
+    original ``<n>.obj`` files, or a :class:`Reference` already in memory."""
+    if not (rtol >= 0 and atol >= 0):
+        raise CompareError(f"tolerances must be non-negative (rtol {rtol}, atol {atol})")
+    a = Path(a)
+    ref = b if isinstance(b, Reference) else read_reference(b)
+    run_a = _run_frames(a, "A")
+    steps = _compared_steps(run_a, ref)
+    res = CompareResult()
+    res.original_format = ref.kind == "original"
 
     first = _read_vtu(run_a.paths[0])
     n = len(first.points)
     lo, hi = first.points.min(axis=0), first.points.max(axis=0)
     res.scale = float(np.linalg.norm(hi - lo)) or 1.0  # a single point: absolute units
     res.tolerance = atol + rtol * res.scale
-    if original:
+    index = ref.index
+    if ref.kind == "original":
         index = surface_vertices(first)
         if len(index) == 0:
             raise CompareError(f"A: {run_a.paths[0]} has no surface triangles to compare "
                                "with OBJ files")
-    else:
-        cells_a = _cells(first)
-        fb = _read_vtu(paths_b[run_a.steps[0]])
-        if len(fb.points) != n:
+    if ref.mesh is not None:
+        mine = mesh_signature(first)
+        if mine["vertices"] != ref.mesh.get("vertices"):
             raise CompareError(f"different vertex counts: A has {n}, B has "
-                               f"{len(fb.points)} ({paths_b[run_a.steps[0]].name})")
-        cells_b = _cells(fb)
-        if cells_a.keys() != cells_b.keys() or any(
-                not np.array_equal(cells_a[k], cells_b[k]) for k in cells_a):
+                               f"{ref.mesh.get('vertices')} ({ref.names[min(ref.frames)]})")
+        if mine != ref.mesh:
             raise CompareError("different meshes: A and B have the same vertex count but "
                                "different cells")
 
-    for step, path_a, t in zip(run_a.steps, run_a.paths, run_a.times):
-        xa = np.asarray(_read_vtu(path_a).points, dtype=np.float64)
+    frame_of = {s: k for k, s in enumerate(run_a.steps)}
+    for step in steps:
+        path_a, t = run_a.paths[frame_of[step]], run_a.times[frame_of[step]]
+        xa = _positions(path_a)
         if len(xa) != n:
             raise CompareError(f"A: {path_a.name} has {len(xa)} vertices, "
                                f"{run_a.paths[0].name} has {n}")
-        if original:
-            xb = read_obj_vertices(paths_b[step])
+        if index is not None:
             xa = xa[index]
-            if len(xb) != len(xa):
-                raise CompareError(f"different vertex counts: A has {len(xa)} surface "
-                                   f"vertices, {paths_b[step]} has {len(xb)} 'v' lines")
-        else:
-            xb = np.asarray(_read_vtu(paths_b[step]).points, dtype=np.float64)
-            if len(xb) != n:
-                raise CompareError(f"different vertex counts: A has {n}, B's "
-                                   f"{paths_b[step].name} has {len(xb)}")
+        xb = ref.frames[step]()
+        if len(xb) != len(xa):
+            what = "" if index is None else " compared"
+            raise CompareError(f"different vertex counts: A has {len(xa)}{what} vertices, "
+                               f"B's {ref.names[step]} has {len(xb)}")
         d = np.linalg.norm(xa - xb, axis=1)
         d[~np.isfinite(d)] = np.inf  # NaN never counts as equal
         dmax = float(d.max()) if d.size else 0.0
@@ -216,28 +301,16 @@ def compare_runs(a, b, rtol: float = 1e-6, atol: float = 0.0) -> CompareResult:
         res.max_rel.append(dmax / res.scale)
         res.rms_rel.append(float(np.sqrt(np.mean(d ** 2))) / res.scale if d.size else 0.0)
         if res.first_frame_diff is None and dmax > res.tolerance:
-            name = path_a.name if not original else f"{path_a.name} vs {step}.obj"
+            name = path_a.name if ref.kind == "run" else f"{path_a.name} vs {ref.names[step]}"
+            vertex = int(np.argmax(d)) if index is None else int(index[np.argmax(d)])
             res.first_frame_diff = (
                 f"frame {name} (step {step}): largest vertex position difference "
                 f"{dmax:.3g} m = {dmax / res.scale:.3g} of the scene size "
-                f"(vertex {int(np.argmax(d))}), tolerance {res.tolerance:.3g} m")
+                f"(vertex {vertex}), tolerance {res.tolerance:.3g} m")
             res.first_frame_step = step
 
-    if not original:
-        logs = []
-        for name, folder in (("A", a), ("B", b)):
-            p = folder / "steps.csv"
-            if not p.is_file():
-                raise CompareError(f"missing file: {name}'s {p}")
-            try:
-                logs.append(read_csv(p))
-            except (ValueError, OSError) as exc:
-                raise CompareError(f"{name}: {p}: {exc}") from exc
-        la, lb = logs
-        for name, log in (("A", la), ("B", lb)):
-            absent = [c for c in ("step", *COUNT_COLUMNS) if c not in log]
-            if absent:
-                raise CompareError(f"{name}'s steps.csv lacks the columns {', '.join(absent)}")
+    if ref.log is not None:
+        la, lb = _read_log(a, "A"), ref.log
         sa, sb = list(la["step"]), list(lb["step"])
         if sa != sb:
             raise CompareError(f"steps.csv: A logs {len(sa)} steps, B {len(sb)} "
@@ -253,6 +326,68 @@ def compare_runs(a, b, rtol: float = 1e-6, atol: float = 0.0) -> CompareResult:
                 res.first_count_step = int(s)
                 break
     return res
+
+
+# Golden references: a short run kept in a few KB. Positions are written with repr (17
+# significant digits), so a reference compared with the run it was taken from differs by 0.
+
+def golden_from_run(folder, frames: int = 4, vertices: int = 20, about=None) -> dict:
+    """A golden reference of the run in ``folder``: ``frames`` frames spread evenly over
+    the run (first and last included), the positions there of ``vertices`` vertices spread
+    evenly over the numbering (so every body of a multi-body scene has some), and every
+    step's Newton iterations and contact counts. ``about`` is kept as free information."""
+    folder = Path(folder)
+    run = _run_frames(folder, "run")
+    first = _read_vtu(run.paths[0])
+    n = len(first.points)
+    index = np.unique(np.linspace(0, n - 1, min(vertices, n)).round().astype(np.int64))
+    picks = np.unique(np.linspace(0, len(run.steps) - 1, min(frames, len(run.steps)))
+                      .round().astype(np.int64))
+    log = _read_log(folder, "run")
+    return {
+        "format": GOLDEN_FORMAT,
+        "about": dict(about or {}),
+        "mesh": mesh_signature(first),
+        "vertices": index.tolist(),
+        "frames": [{"step": run.steps[k], "time": run.times[k],
+                    "positions": _positions(run.paths[k])[index].tolist()} for k in picks],
+        "log": {c: log[c].tolist() for c in ("step", *COUNT_COLUMNS)},
+    }
+
+
+def write_golden(path, golden: dict) -> Path:
+    """Write a golden reference as JSON with each list of numbers on one line (a vertex's
+    position, a log column), so that a regenerated reference reads well in a diff."""
+    text = json.dumps(golden, indent=1)
+    text = re.sub(r"\[\s+([^\[\]{}\"]*?)\s+\]",
+                  lambda m: "[" + " ".join(m.group(1).split()) + "]", text)
+    return atomic_write_text(path, text + "\n", fsync=False)
+
+
+def read_golden(path) -> Reference:
+    """A golden reference file (:func:`write_golden`) as a :class:`Reference`."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise CompareError(f"{path}: cannot read as a golden reference ({exc})") from exc
+    if not isinstance(data, dict) or data.get("format") != GOLDEN_FORMAT:
+        raise CompareError(f"{path}: not a golden reference (no \"format\": "
+                           f"\"{GOLDEN_FORMAT}\")")
+    try:
+        frames = {int(f["step"]): np.asarray(f["positions"], dtype=np.float64).reshape(-1, 3)
+                  for f in data["frames"]}
+        log = {c: np.asarray(data["log"][c]) for c in ("step", *COUNT_COLUMNS)}
+        index = np.asarray(data["vertices"], dtype=np.int64)
+        mesh = dict(data["mesh"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise CompareError(f"{path}: damaged golden reference ({exc!r})") from exc
+    if len(frames) == 0 or any(len(x) != len(index) for x in frames.values()):
+        raise CompareError(f"{path}: damaged golden reference (every frame needs one "
+                           "position per sampled vertex)")
+    return Reference("golden", {s: (lambda x=x: x) for s, x in frames.items()},
+                     {s: path.name for s in frames}, source=str(path), index=index,
+                     mesh=mesh, log=log)
 
 
 def plot_result(res: CompareResult, path) -> Path:
