@@ -121,8 +121,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("compare", help="compare two runs' frames and logs (exit 0 same, "
                        "1 different, 2 cannot compare)")
     p.add_argument("a", metavar="A", help="output folder of the reference run")
-    p.add_argument("b", metavar="B", help="output folder of the other run, or a folder of "
-                   "the original IPC program's <n>.obj files")
+    p.add_argument("b", metavar="B", help="output folder of the other run, a folder of "
+                   "the original IPC program's <n>.obj files, or a golden reference .json "
+                   "(tests/regression/golden/)")
     p.add_argument("--rtol", type=float, default=1e-6, metavar="R",
                    help="allowed vertex displacement as a fraction of the scene size "
                         "(bounding-box diagonal of A's first frame; default 1e-6)")
