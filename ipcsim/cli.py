@@ -64,7 +64,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("run", help="simulate a scene and write frames and logs",
                        description="Simulate a scene and write frames and logs. Shows a "
-                       "progress bar on a terminal and a line every 5 %% of the steps (or "
+                       "progress bar on a terminal and a line every 5 % of the steps (or "
                        "30 s) otherwise. Ctrl-C stops after the current step (exit status "
                        "130); --resume continues. Exit status: 0 done, 2 bad input, 3 the "
                        "simulation failed (NaN, solver), 130 interrupted.")
@@ -80,7 +80,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--steps", type=int, metavar="N",
                    help="stop after step N (default: ceil(duration/dt))")
     p.add_argument("--render", action="store_true",
-                   help="also draw each frame as a PNG into OUT/render as it is written "
+                   help="also draw each frame as a PNG into DIR/render as it is written "
                         "(the camera frames the initial scene; `ipcsim render` frames the "
                         "whole run)")
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
