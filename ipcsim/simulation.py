@@ -123,7 +123,17 @@ class Simulation:
             c.kappa = kappa
 
     def contact_statistics(self, x) -> dict:
-        """Active contacts by kind and the smallest distance (signed for planes)."""
+        """Active contacts by kind and the smallest distance (signed for planes). Newton
+        asks twice per iterate (after one iteration, before the next) with the same
+        array, so the last answer is kept for that array."""
+        cached = getattr(self, "_statistics_at", None)
+        if cached is not None and cached[0] is x:
+            return dict(cached[1])
+        stats = self._contact_statistics(x)
+        self._statistics_at = (x, stats)
+        return dict(stats)
+
+    def _contact_statistics(self, x) -> dict:
         stats = {"contacts_plane": 0, "contacts_point_triangle": 0, "contacts_edge_edge": 0,
                  "min_distance": np.inf}
         if self.plane_contact is not None:
