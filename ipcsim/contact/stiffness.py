@@ -1,6 +1,6 @@
 """Adaptive barrier stiffness κ, as the original IPC program and the IPC Toolkit set it.
 
-    d₀    = (1e-8 · l)²                                   (a squared distance)
+    d₀    = (1e-8 · l)², or ½ d̂² when that is not below d̂²  (a squared distance)
     κ_min = c · m̄ / (4 d₀ · b''(d₀, d̂²))                   c = kappaMinMultiplier (1e11)
     κ_max = 100 κ_min
     κ     = clamp(−(g_B · g_E) / ‖g_B‖², κ_min, κ_max)     when contacts exist
@@ -20,6 +20,8 @@ from ..kernels.barrier import barrier_second_derivative
 def kappa_bounds(bbox_diagonal: float, dhat: float, mean_mass: float,
                  multiplier: float = 1e11) -> tuple[float, float]:
     d0 = (1e-8 * bbox_diagonal) ** 2
+    if d0 >= dhat * dhat:  # d̂ below 1e-8·l: b'' is 0 there; take the middle of the range
+        d0 = 0.5 * dhat * dhat  # (as ipctk)
     kappa_min = multiplier * mean_mass / (4.0 * d0 * barrier_second_derivative(d0, dhat * dhat))
     return kappa_min, 100.0 * kappa_min
 
