@@ -5,15 +5,10 @@ working solver gives (see docs/benchmarks.md) and far below what a broken one wo
 from __future__ import annotations
 
 import csv
-import sys
 
 import pytest
-from examples import REPO_ROOT
 
-if str(REPO_ROOT) not in sys.path:  # the benchmarks package sits beside ipcsim, not in it
-    sys.path.insert(0, str(REPO_ROOT))
-
-from benchmarks.analytic_references import SMOKE, run  # noqa: E402
+from benchmarks.analytic_references import SMOKE, run
 
 
 @pytest.fixture(scope="module")

@@ -8,18 +8,13 @@ from __future__ import annotations
 
 import csv
 import math
-import sys
 
 import numpy as np
-from examples import REPO_ROOT
 
 from ipcsim.model.builder import build_model
 from ipcsim.scene import load_scene
 
-if str(REPO_ROOT) not in sys.path:  # the benchmarks package sits beside ipcsim, not in it
-    sys.path.insert(0, str(REPO_ROOT))
-
-from benchmarks.speed_accuracy import (  # noqa: E402
+from benchmarks.speed_accuracy import (
     SCENES, Settings, main, material_points, pareto, write_scene)
 
 

@@ -2,15 +2,10 @@
 
 from __future__ import annotations
 
-import sys
-
 import pytest
-from examples import IPC_EXAMPLES, REPO_ROOT
+from examples import IPC_EXAMPLES
 
-if str(REPO_ROOT) not in sys.path:  # the benchmarks package sits beside ipcsim, not in it
-    sys.path.insert(0, str(REPO_ROOT))
-
-from benchmarks.tb1_diffdt import PAPER, STEPS, main  # noqa: E402
+from benchmarks.tb1_diffdt import PAPER, STEPS, main
 
 
 def test_smoke_row_has_ipcsims_and_the_papers_figures(capsys):
