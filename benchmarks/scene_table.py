@@ -32,7 +32,8 @@ def summarise(out: Path, name: str) -> dict:
     mesh = meshio.read(first)
     tets = len(mesh.cells_dict.get("tetra", []))
     report = io.StringIO()
-    clean = check_frames(out, report) == 0
+    counts = {}
+    clean = check_frames(out, report, counts) == 0
     run = json.loads((out / "run.json").read_text())
     contacts = steps["contacts_total"]
     return {
@@ -41,7 +42,7 @@ def summarise(out: Path, name: str) -> dict:
         "contacts_avg": float(np.mean(contacts)), "contacts_max": int(np.max(contacts)),
         "iterations": float(np.mean(steps["newton_iterations"])),
         "capped": int(np.sum(steps["hit_iteration_cap"])),
-        "seconds": float(np.mean(steps["wall_s"])), "clean": clean,
+        "seconds": float(np.mean(steps["wall_s"])), "clean": clean, **counts,
     }
 
 

@@ -223,6 +223,8 @@ class Simulation:
         if self.damping is not None:
             self.damping.start_step(x_n, self.elasticity.hessian(x_n))
 
+        if self.mesh_contact is not None:
+            self.mesh_contact.start_step()
         x0 = self._warm_start(kinematic)
         tol = model.newton_tol(st.step)
         if self.friction is not None:

@@ -57,8 +57,10 @@ def report(scene, model, out=None) -> None:
         w(f"  {name:<{width}}  {value}\n")
 
 
-def check_frames(folder: Path, out=None) -> int:
-    """Exact intersection and inversion check of every frame of a run."""
+def check_frames(folder: Path, out=None, totals: dict | None = None) -> int:
+    """Exact intersection and inversion check of every frame of a run. ``totals``, when
+    given, receives the counts summed over frames: ``intersections``, ``inverted_tets``,
+    ``below_plane``."""
     import meshio
     import numpy as np
 
@@ -76,6 +78,7 @@ def check_frames(folder: Path, out=None) -> int:
         out.write("the run's scene has self collision off: bodies may pass through each other, "
                   "so only inverted tets and plane sides are checked\n")
     bad = 0
+    counts = {"intersections": 0, "inverted_tets": 0, "below_plane": 0}
     series = read_series(pvd)
     surface = None
     for time, vtu in series:
@@ -91,17 +94,22 @@ def check_frames(folder: Path, out=None) -> int:
         result = check_frame(mesh.points, tets.astype(np.int64),
                              surface if self_collision else surface[:0])
         problems = [] if result.ok else [result.summary()]
+        counts["intersections"] += max(result.n_intersections, 0)
+        counts["inverted_tets"] += max(result.n_inverted, 0)
         if planes is not None and len(tets):
             # simulated vertices must stay strictly on the positive side of every plane
             origins, normals = planes
             x = mesh.points[np.unique(tets)]
             below = int((np.einsum("vk,pk->vp", x, normals)
                          - np.einsum("pk,pk->p", origins, normals) <= 0.0).any(axis=1).sum())
+            counts["below_plane"] += below
             if below:
                 problems.append(f"{below} vertices on or below a plane")
         if problems:
             bad += 1
             out.write(f"{vtu.name} (t={time:g} s): {'; '.join(problems)}\n")
+    if totals is not None:
+        totals.update(counts)
     clean = "no intersection and no inverted tet" if self_collision else "no inverted tet"
     out.write(f"checked {len(series)} frames: "
               + (f"{clean}\n" if bad == 0 else f"{bad} frames with problems\n"))

@@ -49,6 +49,7 @@ class MeshContact:
         self.kappa = 1.0
         self._at = None  # (x, pt, ee, ee_eps) candidates at the last update
         self._swept = None  # candidates over the last max_step's segment
+        self._recent_alpha = 1.0  # CCD's α at the last iteration of this step
 
     # -- candidate sets ------------------------------------------------------------------
     def _candidates(self, x, x1=None):
@@ -79,19 +80,40 @@ class MeshContact:
         return Triplets(*kb.barrier_hessian_triplets(x, pt, ee, eps, self.s_hat, self.kappa,
                                                      True))
 
+    def start_step(self):
+        """A new time step: forget how far CCD let the last step's iterations go."""
+        self._recent_alpha = 1.0
+
     def max_step(self, x, p):
-        x1 = x + p.reshape(-1, 3)
+        """Largest α ≤ 1 such that x + αp keeps every surface pair apart (additive CCD).
+
+        With large time steps CCD keeps cutting Newton's directions to a small α, and the
+        pairs swept over the whole direction are then mostly pairs it never reaches. So CCD
+        first runs over [0, β], β twice the α of this step's previous iteration. When some
+        pair stops the motion inside it, that α is safe: every pair outside the shorter
+        sweep stays farther apart than d̂ over [0, β]. Only otherwise is the whole direction
+        swept."""
+        p3 = p.reshape(-1, 3)
+        beta = min(1.0, 2.0 * self._recent_alpha)
+        alpha = self._ccd(x, p3, beta)
+        if beta < 1.0 and alpha >= beta:
+            alpha = self._ccd(x, p3, 1.0)
+        self._recent_alpha = alpha
+        return alpha
+
+    def _ccd(self, x, p3, beta):
+        """Safe fraction of p within [0, β]; keeps the pairs the line search must see."""
+        x1 = x + beta * p3
         self._swept = self._candidates(x, x1)
-        pt, ee, _ = self._swept  # swept boxes grown by d̂: a superset of CCD's candidates
+        pt, ee, eps = self._swept  # swept boxes grown by d̂: a superset of CCD's candidates
         if len(pt) == 0 and len(ee) == 0:
-            return 1.0
-        alpha = ccd_max_step(x, x1, pt, ee, DEFAULT_MIN_GAP_FRACTION, DEFAULT_MAX_ITERATIONS)
-        if alpha < 1.0:
-            # the line search only visits [x, x + αp]: with large steps CCD often cuts p
-            # to a small α, and the pairs swept over that part alone are far fewer, which
-            # makes every energy evaluation of the line search cheaper
-            xa = x + alpha * p.reshape(-1, 3)
-            pt, ee, eps = self._swept
+            return beta
+        alpha = beta * ccd_max_step(x, x1, pt, ee, DEFAULT_MIN_GAP_FRACTION,
+                                    DEFAULT_MAX_ITERATIONS)
+        if alpha < beta:
+            # the line search only visits [x, x + αp]: the pairs swept over that part
+            # alone are far fewer, which makes each of its energy evaluations cheaper
+            xa = x + alpha * p3
             keep_pt = swept_pairs_within(x, xa, pt, 1, self.dhat)
             keep_ee = swept_pairs_within(x, xa, ee, 2, self.dhat)
             self._swept = pt[keep_pt], ee[keep_ee], eps[keep_ee]

@@ -17,5 +17,5 @@ def test_smoke_row_has_ipcsims_and_the_papers_figures(capsys):
     assert len(row) == 1
     cells = [c.strip() for c in row[0].strip("|").split("|")]
     assert cells[5] != "0" and float(cells[3]) >= 1.0  # Newton iterations were taken
-    assert cells[6] == "yes"  # every frame passed the exact checker
+    assert cells[6] == "clean"  # every frame passed the exact checker
     assert cells[7] == "597 (1.3K)" and cells[9] == "4.75"  # the paper's row for h = 0.1
