@@ -1,0 +1,68 @@
+"""MeshContact.max_step: CCD first over twice the step's last α, then, only when nothing
+stops the motion there, over the whole direction. Both give the same safe step."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ipcsim.contact.intersection import find_intersections
+from ipcsim.kernels.contact_barrier import classify_and_distance
+from ipcsim.model.builder import build_model
+from ipcsim.model.generate import box_tet_mesh, write_msh
+from ipcsim.potentials.mesh_contact import MeshContact
+from ipcsim.scene import load_scene
+
+DHAT = 0.01
+
+
+@pytest.fixture(scope="module")
+def falling_cube(tmp_path_factory):
+    """A turned cube 5 cm above another; p throws it 3 m down through the lower one."""
+    folder = tmp_path_factory.mktemp("ccd")
+    write_msh(folder / "cube.msh", *box_tet_mesh(2, 2, 2, size=(1, 1, 1)))
+    scene = folder / "scene.txt"
+    scene.write_text("shapes input 2\ncube.msh 0 0 0  0 0 0  1 1 1\n"
+                     "cube.msh 0.13 1.05 0.07  17 11 23  1 1 1\n"
+                     f"dHatAbs {DHAT}\nturnOffGravity\n")
+    model = build_model(load_scene(scene))
+    x = np.array(model.initial_positions)
+    top = model.vertex_shape == 1
+    x[top, 1] += 1.05 - x[top, 1].min()
+    rng = np.random.default_rng(3)
+    p = np.zeros_like(x)
+    p[top] = [0.0, -3.0, 0.0]
+    p[top] += 0.05 * rng.normal(size=(int(top.sum()), 3))
+    return model, x, p
+
+
+def _min_distance(term, x):
+    pt, ee, _ = term._candidates(x)  # pairs within d̂
+    _, pt_d2, _, ee_d2 = classify_and_distance(x, pt, ee)
+    return np.sqrt(min(pt_d2.min(initial=np.inf), ee_d2.min(initial=np.inf)))
+
+
+def test_the_short_sweep_gives_the_whole_sweeps_step_and_it_is_safe(falling_cube):
+    model, x, p = falling_cube
+    term = MeshContact(model, model.rest_positions, DHAT)
+    term.start_step()
+    whole = term.max_step(x, p.reshape(-1))  # first iteration of a step: β = 1
+    assert 0.0 < whole < 0.05  # the 3 m throw is stopped after about 5 cm
+    swept_whole = len(term._candidates(x, x + p)[0])
+    staged = term.max_step(x, p.reshape(-1))  # now β = 2·whole
+    assert staged == pytest.approx(whole, rel=1e-9)
+    short = len(term._candidates(x, x + 2 * whole * p)[0])
+    assert short < swept_whole / 5  # what the shortcut saves
+    xa = x + staged * p
+    assert len(find_intersections(xa, term.edges, term.triangles)) == 0
+    assert _min_distance(term, xa) > 0.0
+
+
+def test_a_direction_free_beyond_the_short_sweep_is_swept_whole(falling_cube):
+    model, x, p = falling_cube
+    term = MeshContact(model, model.rest_positions, DHAT)
+    term.start_step()
+    term.max_step(x, p.reshape(-1))  # a small α: the next try sweeps only 2α
+    away = np.zeros_like(x)
+    away[model.vertex_shape == 1] = [0.0, 2.0, 0.0]  # straight up, nothing in the way
+    assert term.max_step(x, away.reshape(-1)) == 1.0
