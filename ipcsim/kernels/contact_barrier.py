@@ -35,6 +35,7 @@ from ipcsim.kernels.distance import (
     point_triangle_distance_type,
 )
 from ipcsim.kernels.linalg import project_psd
+from ipcsim.kernels.scatter import scatter_stencil_gradients
 from ipcsim.kernels.mollifier import (
     edge_edge_cross_sq,
     edge_edge_cross_sq_gradient,
@@ -318,17 +319,9 @@ def _local_gradients(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa):
 
 @njit(cache=True, error_model="numpy")
 def barrier_gradient(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa):
-    """∇B as a flat (3n,) vector. Local gradients are computed in parallel, then scattered
-    serially (race-free; the scatter is O(12 (k + j)) additions)."""
+    """∇B as a flat (3n,) vector: local gradients in parallel, then a serial scatter."""
     G = _local_gradients(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa)
-    k = pt_pairs.shape[0]
-    grad = np.zeros(3 * x.shape[0])
-    for i in range(G.shape[0]):
-        pair = pt_pairs[i] if i < k else ee_pairs[i - k]
-        for v in range(4):
-            for a in range(3):
-                grad[3 * pair[v] + a] += G[i, 3 * v + a]
-    return grad
+    return scatter_stencil_gradients(G, pt_pairs, ee_pairs, x.shape[0])
 
 
 @njit(cache=True, parallel=True, error_model="numpy")

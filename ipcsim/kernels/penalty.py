@@ -45,7 +45,13 @@ from ipcsim.kernels.distance import (
     point_triangle_distance_sq_hessian,
     point_triangle_distance_type,
 )
-from ipcsim.kernels.plane_contact import _signed_distance
+from ipcsim.kernels.plane_contact import (
+    _signed_distance,
+    normal_gradient,
+    normal_hessian_triplets,
+    plane_distances,
+)
+from ipcsim.kernels.scatter import scatter_stencil_gradients
 
 
 # =========================================================================================
@@ -66,42 +72,16 @@ def plane_penalty_value(x, vertices, origins, normals, dhat, k):
 
 @njit(cache=True)
 def plane_penalty_gradient(x, vertices, origins, normals, dhat, k):
-    # −k (d̂ − d) n per active pair
-    g = np.zeros(x.shape[0] * 3)
-    for p in range(origins.shape[0]):
-        for j in range(vertices.shape[0]):
-            v = vertices[j]
-            gap = dhat - _signed_distance(x, v, origins[p], normals[p])
-            if gap > 0.0:
-                for a in range(3):
-                    g[3 * v + a] -= k * gap * normals[p, a]
-    return g
+    # ∂P/∂d = −k (d̂ − d) per active pair
+    gap = dhat - plane_distances(x, vertices, origins, normals)
+    return normal_gradient(x.shape[0], vertices, normals, -k * np.maximum(gap, 0.0))
 
 
 @njit(cache=True)
 def plane_penalty_hessian(x, vertices, origins, normals, dhat, k):
     """COO triplets k n nᵀ, 9 per active pair (PSD as it stands)."""
-    n_active = 0
-    for p in range(origins.shape[0]):
-        for j in range(vertices.shape[0]):
-            if _signed_distance(x, vertices[j], origins[p], normals[p]) < dhat:
-                n_active += 1
-    rows = np.empty(9 * n_active, dtype=np.int64)
-    cols = np.empty(9 * n_active, dtype=np.int64)
-    vals = np.empty(9 * n_active)
-    i = 0
-    for p in range(origins.shape[0]):
-        for j in range(vertices.shape[0]):
-            v = vertices[j]
-            if _signed_distance(x, v, origins[p], normals[p]) >= dhat:
-                continue
-            for a in range(3):
-                for b in range(3):
-                    rows[i] = 3 * v + a
-                    cols[i] = 3 * v + b
-                    vals[i] = k * normals[p, a] * normals[p, b]
-                    i += 1
-    return rows, cols, vals
+    d = plane_distances(x, vertices, origins, normals)
+    return normal_hessian_triplets(vertices, normals, d < dhat, np.full(d.shape, k))
 
 
 # =========================================================================================
@@ -197,16 +177,9 @@ def _local_gradients(x, pt_pairs, ee_pairs, dhat, k):
 
 @njit(cache=True, error_model="numpy")
 def mesh_penalty_gradient(x, pt_pairs, ee_pairs, dhat, k):
-    """∇P as a flat (3n,) vector: local gradients in parallel, scattered serially."""
+    """∇P as a flat (3n,) vector: local gradients in parallel, then a serial scatter."""
     G = _local_gradients(x, pt_pairs, ee_pairs, dhat, k)
-    n_pt = pt_pairs.shape[0]
-    grad = np.zeros(3 * x.shape[0])
-    for i in range(G.shape[0]):
-        pair = pt_pairs[i] if i < n_pt else ee_pairs[i - n_pt]
-        for v in range(4):
-            for a in range(3):
-                grad[3 * pair[v] + a] += G[i, 3 * v + a]
-    return grad
+    return scatter_stencil_gradients(G, pt_pairs, ee_pairs, x.shape[0])
 
 
 @njit(cache=True, parallel=True, error_model="numpy")

@@ -47,50 +47,71 @@ def plane_barrier_value(x, vertices, origins, normals, s_hat, kappa):
 
 
 @njit(cache=True)
-def plane_barrier_gradient(x, vertices, origins, normals, s_hat, kappa):
-    g = np.zeros(x.shape[0] * 3)
-    for k in range(origins.shape[0]):
+def normal_gradient(n_vertices, vertices, normals, coeff):
+    """Flat (3n,) gradient of an energy of the signed distances: Σ_k coeff[k, j] n_k on
+    vertex j, where coeff[k, j] = ∂E/∂d of pair (plane k, vertex j) (0 when inactive)."""
+    g = np.zeros(n_vertices * 3)
+    for k in range(normals.shape[0]):
         for j in range(vertices.shape[0]):
             v = vertices[j]
-            d = _signed_distance(x, v, origins[k], normals[k])
-            s = d * d
-            if s < s_hat:
-                c = kappa * barrier_first_derivative(s, s_hat) * 2.0 * d
-                for a in range(3):
-                    g[3 * v + a] += c * normals[k, a]
+            for a in range(3):
+                g[3 * v + a] += coeff[k, j] * normals[k, a]
     return g
 
 
 @njit(cache=True)
-def plane_barrier_hessian(x, vertices, origins, normals, s_hat, kappa):
-    """COO triplets, 9 per active pair, already PSD (clamped rank-one coefficient)."""
+def normal_hessian_triplets(vertices, normals, active, coeff):
+    """COO triplets coeff[k, j] n_k n_kᵀ on vertex j, 9 per active pair."""
     n_active = 0
-    for k in range(origins.shape[0]):
+    for k in range(normals.shape[0]):
         for j in range(vertices.shape[0]):
-            d = _signed_distance(x, vertices[j], origins[k], normals[k])
-            if d * d < s_hat:
+            if active[k, j]:
                 n_active += 1
     rows = np.empty(9 * n_active, dtype=np.int64)
     cols = np.empty(9 * n_active, dtype=np.int64)
     vals = np.empty(9 * n_active)
     i = 0
-    for k in range(origins.shape[0]):
+    for k in range(normals.shape[0]):
         for j in range(vertices.shape[0]):
-            v = vertices[j]
-            d = _signed_distance(x, v, origins[k], normals[k])
-            s = d * d
-            if s >= s_hat:
+            if not active[k, j]:
                 continue
-            c = kappa * (4.0 * s * barrier_second_derivative(s, s_hat)
-                         + 2.0 * barrier_first_derivative(s, s_hat))
-            c = max(c, 0.0)
+            v = vertices[j]
             for a in range(3):
                 for b in range(3):
                     rows[i] = 3 * v + a
                     cols[i] = 3 * v + b
-                    vals[i] = c * normals[k, a] * normals[k, b]
+                    vals[i] = coeff[k, j] * normals[k, a] * normals[k, b]
                     i += 1
     return rows, cols, vals
+
+
+@njit(cache=True)
+def plane_barrier_gradient(x, vertices, origins, normals, s_hat, kappa):
+    # ∂B/∂d = κ b'(s) 2d per active pair
+    d = plane_distances(x, vertices, origins, normals)
+    coeff = np.zeros_like(d)
+    for k in range(d.shape[0]):
+        for j in range(d.shape[1]):
+            s = d[k, j] * d[k, j]
+            if s < s_hat:
+                coeff[k, j] = kappa * barrier_first_derivative(s, s_hat) * 2.0 * d[k, j]
+    return normal_gradient(x.shape[0], vertices, normals, coeff)
+
+
+@njit(cache=True)
+def plane_barrier_hessian(x, vertices, origins, normals, s_hat, kappa):
+    """COO triplets, 9 per active pair, already PSD (clamped rank-one coefficient)."""
+    d = plane_distances(x, vertices, origins, normals)
+    active = d * d < s_hat
+    coeff = np.zeros_like(d)
+    for k in range(d.shape[0]):
+        for j in range(d.shape[1]):
+            if active[k, j]:
+                s = d[k, j] * d[k, j]
+                c = kappa * (4.0 * s * barrier_second_derivative(s, s_hat)
+                             + 2.0 * barrier_first_derivative(s, s_hat))
+                coeff[k, j] = max(c, 0.0)
+    return normal_hessian_triplets(vertices, normals, active, coeff)
 
 
 @njit(cache=True)
