@@ -7,16 +7,15 @@ import io
 import re
 
 import pytest
+from generated import write_box_msh
 
 from ipcsim.cli import main
 from ipcsim.commands.progress import RunProgress
-from ipcsim.model.generate import box_tet_mesh, write_msh
 
 
 @pytest.fixture
 def drop_scene(tmp_path):
-    points, tets = box_tet_mesh(1, 1, 1, size=(0.2, 0.2, 0.2), origin=(-0.1, 0.0, -0.1))
-    write_msh(tmp_path / "cube.msh", points, tets)
+    write_box_msh(tmp_path / "cube.msh", cells=(1, 1, 1))
     scene = tmp_path / "drop.txt"
     scene.write_text("shapes input 1\ncube.msh 0 0.01 0  0 0 0  1 1 1\n"
                      "selfCollisionOff\nground 0 0\ntime 1 0.01\n")

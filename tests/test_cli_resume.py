@@ -12,10 +12,10 @@ import time
 import meshio
 import numpy as np
 import pytest
+from generated import write_box_msh
 
 from ipcsim.cli import main
 from ipcsim.io.csv_log import read_csv
-from ipcsim.model.generate import box_tet_mesh, write_msh
 
 STEPS = 150
 
@@ -24,8 +24,7 @@ STEPS = 150
 def stacked_cubes(tmp_path):
     """A cube dropped off-centre onto another on the ground: mesh contact, friction on
     both contacts and κ adaptation, so the resumed state must carry all of them."""
-    points, tets = box_tet_mesh(2, 2, 2, size=(0.2, 0.2, 0.2), origin=(-0.1, 0.0, -0.1))
-    write_msh(tmp_path / "cube.msh", points, tets)
+    write_box_msh(tmp_path / "cube.msh")
     scene = tmp_path / "stack.txt"
     scene.write_text("shapes input 2\n"
                      "cube.msh 0 0.002 0  0 0 0  1 1 1\n"
@@ -113,8 +112,7 @@ def test_resume_refuses_a_different_scene_and_a_folder_without_checkpoint(stacke
 
 def test_nan_stops_the_run_with_status_3_naming_step_and_term(tmp_path, capsys):
     """A Young's modulus whose Lamé λ overflows makes the elastic Hessian NaN at step 1."""
-    points, tets = box_tet_mesh(1, 1, 1, size=(0.2, 0.2, 0.2), origin=(-0.1, 0.0, -0.1))
-    write_msh(tmp_path / "cube.msh", points, tets)
+    write_box_msh(tmp_path / "cube.msh", cells=(1, 1, 1))
     scene = tmp_path / "nan.txt"
     scene.write_text("shapes input 1\ncube.msh 0 0.01 0  0 0 0  1 1 1 material 1000 1e308 0.4\n"
                      "selfCollisionOff\nground 0 0\ntime 0.1 0.01\n")

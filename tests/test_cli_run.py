@@ -7,17 +7,16 @@ import json
 
 import meshio
 import pytest
+from generated import write_box_msh
 
 from ipcsim.cli import main
 from ipcsim.io.csv_log import read_csv
-from ipcsim.model.generate import box_tet_mesh, write_msh
 from ipcsim.scene import load_scene
 
 
 @pytest.fixture
 def drop_scene(tmp_path):
-    points, tets = box_tet_mesh(2, 2, 2, size=(0.2, 0.2, 0.2), origin=(-0.1, 0.0, -0.1))
-    write_msh(tmp_path / "cube.msh", points, tets)
+    write_box_msh(tmp_path / "cube.msh")
     scene = tmp_path / "drop.txt"
     scene.write_text("shapes input 1\ncube.msh 0 0.01 0  0 0 0  1 1 1\n"
                      "selfCollisionOff\nground 0 0\ntime 0.2 0.01\n")

@@ -6,17 +6,16 @@ import shutil
 
 import meshio
 import pytest
+from generated import write_box_msh
 
 from ipcsim.cli import main
 from ipcsim.io.compare import surface_vertices
-from ipcsim.model.generate import box_tet_mesh, write_msh
 
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("compare")
-    points, tets = box_tet_mesh(2, 2, 2, size=(0.2, 0.2, 0.2), origin=(-0.1, 0.0, -0.1))
-    write_msh(tmp / "cube.msh", points, tets)
+    write_box_msh(tmp / "cube.msh")
     two = tmp / "two.txt"
     two.write_text("shapes input 2\ncube.msh -0.3 0.05 0  0 0 0  1 1 1\n"
                    "cube.msh 0.3 0.05 0  0 0 0  1 1 1\nselfCollisionOff\nground 0 0\n"

@@ -6,18 +6,17 @@ import colorsys
 
 import numpy as np
 import pytest
+from generated import write_box_msh
 from PIL import Image
 
 from ipcsim.cli import main
 from ipcsim.io.render import PALETTE, RenderError, parse_frame_range
-from ipcsim.model.generate import box_tet_mesh, write_msh
 
 
 @pytest.fixture(scope="module")
 def two_body_run(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("render")
-    points, tets = box_tet_mesh(2, 2, 2, size=(0.2, 0.2, 0.2), origin=(-0.1, 0.0, -0.1))
-    write_msh(tmp / "cube.msh", points, tets)
+    write_box_msh(tmp / "cube.msh")
     scene = tmp / "two.txt"
     # body 0 on the left (x < 0), body 1 on the right
     scene.write_text("shapes input 2\ncube.msh -0.3 0.05 0  0 0 0  1 1 1\n"

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from generated import write_box_msh
 
 from ipcsim.model.builder import build_model
-from ipcsim.model.generate import box_tet_mesh, write_msh
 from ipcsim.scene import load_scene
 from ipcsim.simulation import Simulation
 
@@ -17,8 +17,7 @@ G = 9.80665
 @pytest.fixture(scope="module")
 def block_mesh(tmp_path_factory):
     folder = tmp_path_factory.mktemp("mesh")
-    points, tets = box_tet_mesh(2, 1, 2, size=(0.2, 0.1, 0.2), origin=(-0.1, 0.0, -0.1))
-    return write_msh(folder / "block.msh", points, tets)
+    return write_box_msh(folder / "block.msh", cells=(2, 1, 2), size=(0.2, 0.1, 0.2))
 
 
 @pytest.mark.parametrize("mu", [0.2, 0.5])

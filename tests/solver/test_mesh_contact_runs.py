@@ -4,11 +4,11 @@ without ever intersecting; intersecting or touching shapes at the start are refu
 from __future__ import annotations
 
 import pytest
+from generated import write_box_msh
 
 from ipcsim.cli import main
 from ipcsim.contact.intersection import find_intersections
 from ipcsim.model.builder import build_model
-from ipcsim.model.generate import box_tet_mesh, write_msh
 from ipcsim.scene import load_scene
 from ipcsim.simulation import Simulation
 
@@ -16,8 +16,7 @@ from ipcsim.simulation import Simulation
 @pytest.fixture(scope="module")
 def cube_mesh(tmp_path_factory):
     folder = tmp_path_factory.mktemp("mesh")
-    points, tets = box_tet_mesh(2, 2, 2, size=(0.2, 0.2, 0.2), origin=(-0.1, 0.0, -0.1))
-    return write_msh(folder / "cube.msh", points, tets)
+    return write_box_msh(folder / "cube.msh")
 
 
 def _scene(tmp_path, cube_mesh, shapes: str, extra: str = "") -> Simulation:

@@ -3,9 +3,9 @@ backward-Euler trajectory, and resting contact on a ground plane and a tilted ha
 
 import numpy as np
 import pytest
+from generated import write_box_msh
 
 from ipcsim.model.builder import build_model
-from ipcsim.model.generate import box_tet_mesh, write_msh
 from ipcsim.scene import load_scene
 from ipcsim.simulation import Simulation
 
@@ -15,8 +15,7 @@ H = 0.02
 @pytest.fixture(scope="module")
 def cube_mesh(tmp_path_factory):
     folder = tmp_path_factory.mktemp("mesh")
-    points, tets = box_tet_mesh(2, 2, 2, size=(0.2, 0.2, 0.2), origin=(-0.1, -0.1, -0.1))
-    return write_msh(folder / "cube.msh", points, tets)
+    return write_box_msh(folder / "cube.msh", base_y=-0.1)
 
 
 def _simulation(tmp_path, cube_mesh, body: str, h: float = H) -> Simulation:
