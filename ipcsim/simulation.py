@@ -103,6 +103,7 @@ class Simulation:
                            a0, 0, kappa0)
         self._set_kappa(kappa0)
         self.on_iteration = None  # called with each Newton iteration's log row (-v)
+        self._statistics_at = None  # (x, contact statistics at x) of the last iterate
         self.check_initial_state()
 
     def restore(self, checkpoint: dict):
@@ -126,7 +127,7 @@ class Simulation:
         """Active contacts by kind and the smallest distance (signed for planes). Newton
         asks twice per iterate (after one iteration, before the next) with the same
         array, so the last answer is kept for that array."""
-        cached = getattr(self, "_statistics_at", None)
+        cached = self._statistics_at
         if cached is not None and cached[0] is x:
             return dict(cached[1])
         stats = self._contact_statistics(x)

@@ -168,28 +168,29 @@ def main(args) -> int:
                 if row["hit_iteration_cap"]:
                     print(f"warning: step {k} hit the Newton iteration cap "
                           f"({row['newton_iterations']}) without converging", file=sys.stderr)
+                stopping = stop.requested and k < n_steps  # read once: Ctrl-C may come now
                 if k % every == 0 or k == n_steps:
                     write_frame(k)
                     write_checkpoint(out, sim.state)
+                elif stopping:
+                    write_checkpoint(out, sim.state)  # resume from this step, not the frame
                 progress.update(k, k * scene.dt, row["newton_iterations"],
                                 row["contacts_total"])
-                if stop.requested and k < n_steps:
-                    write_checkpoint(out, sim.state)
+                if stopping:
                     raise KeyboardInterrupt
         except SolverError as exc:
             status, failure = exc.exit_status, str(exc)
-            progress.close()
-            print(f"ipcsim: {exc}; frames and logs up to the last completed step are kept",
-                  file=sys.stderr)
+            message = f"{exc}; frames and logs up to the last completed step are kept"
         except KeyboardInterrupt:
             status, failure = 130, "interrupted"
-            progress.close()
-            print(f"ipcsim: interrupted after step {sim.state.step}; continue with: ipcsim "
-                  f"run {args.scene} -o {out} --resume", file=sys.stderr)
+            message = (f"interrupted after step {sim.state.step}; continue with: ipcsim run "
+                       f"{args.scene} -o {out} --resume")
         finally:
-            progress.close()
+            progress.close()  # before any message, so that it does not tangle with the bar
             if renderer is not None:
                 renderer.close()
+    if failure is not None:
+        print(f"ipcsim: {message}", file=sys.stderr)
 
     wall = time.perf_counter() - wall0
     if resume and (out / RUN_INFO_NAME).is_file():

@@ -21,6 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .atomic import atomic_write_text
+
 __all__ = [
     "NEWTON_COLUMNS",
     "STEP_COLUMNS",
@@ -124,8 +126,6 @@ class CsvLog:
     def _keep(self, header: str, keep_rows) -> None:
         """Rewrite the file (atomically) with only the rows ``keep_rows`` accepts; a
         last line cut short by a crash is dropped too."""
-        from .atomic import atomic_write_text
-
         text = self.path.read_text(encoding="utf-8") if self.path.is_file() else header + "\n"
         lines = text.split("\n")
         if lines[0] != header:

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..errors import IpcsimError
 from .atomic import atomic_path
-from .vtk import FRAMES_DIR, SERIES_NAME, read_series
+from .vtk import FRAMES_DIR, SERIES_NAME, frame_file_name, read_series
 
 __all__ = [
     "OBSTACLE_RGB",
@@ -452,7 +452,7 @@ class LiveRenderer:
         self._renderer = None
 
     def _start(self):
-        first = _read_frame(self.folder / FRAMES_DIR / "frame_000000.vtu")
+        first = _read_frame(self.folder / FRAMES_DIR / frame_file_name(0))
         planes = _scene_planes(self.folder, lambda *a: None)
         pts = np.concatenate([first.points] + [np.asarray([p.origin], float) for p in planes])
         lo, hi = pts.min(axis=0), pts.max(axis=0)
@@ -462,7 +462,7 @@ class LiveRenderer:
     def render(self, step: int, t: float, points) -> Path:
         if self._renderer is None:
             self._start()
-        png = self.out_dir / (Path(f"frame_{int(step):06d}").name + ".png")
+        png = self.out_dir / Path(frame_file_name(step)).with_suffix(".png")
         _save_png(png, self._renderer.draw(points, step, t))
         return png
 
