@@ -204,6 +204,17 @@ class Simulation:
 
     # -- the step ----------------------------------------------------------------------
     def step(self) -> dict:
+        """One time step; a solver failure is reported with the number of this step."""
+        number = self.state.step + 1
+        try:
+            return self._step()
+        except NonFiniteError as exc:
+            exc.step = number
+            raise
+        except SolverError as exc:
+            raise SolverError(f"step {number}: {exc}") from None
+
+    def _step(self) -> dict:
         model, scene, st, h = self.model, self.model.scene, self.state, self.h
         wall0 = time.perf_counter()
         self.timer.reset()
@@ -268,18 +279,6 @@ class Simulation:
             if self.on_iteration is not None:
                 self.on_iteration(info)
 
-        try:
-            return self._solve_step(x_n, x0, kinematic, target, accel, tol,
-                                    before_iteration, after_iteration, newton_rows, wall0)
-        except NonFiniteError as exc:
-            exc.step = st.step + 1
-            raise
-        except SolverError as exc:
-            raise SolverError(f"step {st.step + 1}: {exc}") from None
-
-    def _solve_step(self, x_n, x0, kinematic, target, accel, tol, before_iteration,
-                    after_iteration, newton_rows, wall0) -> dict:
-        model, scene, st, h = self.model, self.model.scene, self.state, self.h
         friction_iterations = 0
         if self.friction is not None:
             self._lag_friction(x_n, x_n)
@@ -308,7 +307,7 @@ class Simulation:
                     warnings.warn(f"step {st.step}: friction lagging did not settle in "
                                   f"{FRICTION_ITERATION_CAP} updates", stacklevel=2)
         if not np.all(np.isfinite(x_new)):
-            raise SolverError(f"step {st.step + 1}: positions became non-finite")
+            raise SolverError("positions became non-finite")
 
         v_new, a_new = self.integrator.update(x_new, x_n, st.v, st.a)
         v_new, a_new = fix_kinematic_velocities(v_new, a_new, kinematic, x_new, x_n, st.v, h)
