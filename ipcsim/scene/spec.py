@@ -21,6 +21,8 @@ INF = math.inf
 
 ENERGIES = ("NH", "FCR")
 INTEGRATORS = ("BE", "NM")
+# IPC's barrier, or the quadratic penalty baseline of benchmarks/ (no feasibility filter)
+CONTACT_FORMULATIONS = ("barrier", "penalty")
 
 # Legacy hard-coded scenarios of the original program that ipcsim implements.
 SUPPORTED_SCRIPTS = (
@@ -168,6 +170,8 @@ class SceneSpec:
     kappa_min_multiplier: float = 1e11
     use_abs_parameters: bool = False
     constraint_solver: str = "interiorPoint"
+    contact_formulation: str = "barrier"  # beyond the original: "penalty" for baselines
+    penalty_stiffness: float = 0.0  # N/m per pair, with the penalty formulation
     linear_solver: str | None = None  # None: the fastest installed
 
     # boundary-condition gates and legacy scene switches

@@ -37,6 +37,7 @@ import tomli_w
 from ..errors import SceneError
 from . import paths
 from .spec import (
+    CONTACT_FORMULATIONS,
     INF,
     MESH_KINDS,
     DirichletSpec,
@@ -296,6 +297,8 @@ class _Reader:
             return self.choice(v, key, ("NH", "FCR"))
         if kind == "integrator":
             return self.choice(v, key, ("BE", "NM"))
+        if kind == "formulation":
+            return self.choice(v, key, CONTACT_FORMULATIONS)
         if kind == "solver":
             s = self.string(v, key)
             if s in UNSUPPORTED_SOLVERS:
@@ -515,6 +518,8 @@ _SIMPLE: dict[str, dict[str, tuple[str, str]]] = {
         "dtol": ("dtol", "float"),
         "friction_iterations": ("friction_iterations", "int"),
         "use_abs_parameters": ("use_abs_parameters", "bool"),
+        "formulation": ("contact_formulation", "formulation"),
+        "penalty_stiffness": ("penalty_stiffness", "float"),
     },
     "solver": {
         "newton_tol": ("newton_tol", "tol"),
@@ -587,6 +592,8 @@ def scene_to_dict(spec: SceneSpec, folder: Path) -> dict:
         "friction_iterations": int(s.friction_iterations),
         "use_abs_parameters": s.use_abs_parameters,
     })
+    contact["formulation"] = s.contact_formulation
+    contact["penalty_stiffness"] = float(s.penalty_stiffness)
     doc: dict = {
         "scene": scene,
         "time": {"duration": float(s.duration), "dt": float(s.dt)},

@@ -916,6 +916,9 @@ def format_txt(spec: SceneSpec, path=None) -> str:
     file being written; default: the current directory). Defaults are written out too, so
     the script means the same wherever it is read."""
     out = str(path) if path is not None else None
+    if spec.contact_formulation != "barrier":
+        raise SceneError(out, None, f"contact formulation {spec.contact_formulation!r} has no "
+                                    "text form; write the scene as .toml")
     folder = paths.absolute(path).parent if path is not None else paths.absolute(".")
     s = spec
     L = ["# ipcsim scene (IPC script format). SI units; angles in degrees.",

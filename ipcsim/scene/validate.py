@@ -248,6 +248,8 @@ def validate_scene(
         c.fail("contact.friction_iterations",
                f"must be an integer (got {s.friction_iterations!r})")
     c.number("contact.kappa_min_multiplier", s.kappa_min_multiplier, positive=True)
+    if s.contact_formulation == "penalty":
+        c.number("contact.penalty_stiffness", s.penalty_stiffness, positive=True)
 
     if not s.newton_tol:
         c.fail("solver.newton_tol", "needs at least one value")
