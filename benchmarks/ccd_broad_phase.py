@@ -26,6 +26,7 @@ import numpy as np
 
 from ipcsim.contact.candidates import find_candidates
 from ipcsim.contact.ccd import collision_free_step
+from ipcsim.contact.collision_mesh import CollisionMesh
 
 
 def cube_surface(n):
@@ -98,15 +99,15 @@ def median_ms(fn, repeats):
 
 def run(n, repeats):
     V, F, E, top, dhat, gap = two_cube_scene(n)
-    sv = np.arange(len(V))
+    mesh = CollisionMesh.of(len(V), np.arange(len(V)), E, F)
     X1, Xj = steps(V, top, gap)
     rows = []
-    t, (pt, ee) = median_ms(lambda: find_candidates(V, sv, E, F, dhat), repeats)
+    t, (pt, ee) = median_ms(lambda: find_candidates(mesh, V, dhat), repeats)
     rows.append(("broad phase static (d̂)", t, f"PT {len(pt)}, EE {len(ee)}"))
     for name, Xe in (("approach", X1), ("jitter", Xj)):
-        t, (pt, ee) = median_ms(lambda: find_candidates(V, sv, E, F, 0.0, x1=Xe), repeats)
+        t, (pt, ee) = median_ms(lambda: find_candidates(mesh, V, 0.0, x1=Xe), repeats)
         rows.append((f"broad phase swept, {name}", t, f"PT {len(pt)}, EE {len(ee)}"))
-        t, a = median_ms(lambda: collision_free_step(V, Xe, sv, E, F), repeats)
+        t, a = median_ms(lambda: collision_free_step(mesh, V, Xe), repeats)
         rows.append((f"CCD total, {name}", t, f"alpha {a:.4f}"))
     try:
         import ipctk

@@ -51,7 +51,7 @@ def measure(name: str, scene_path: Path, steps: int, solver: str | None) -> dict
     per_phase = {p: [] for p in PHASES}
     per_iteration, iterations = [], []
     for k in range(steps + 1):
-        row = sim.step()["step"]
+        row = sim.step().row
         its = max(1, row["newton_iterations"])
         if k == 0:
             continue  # includes compilation

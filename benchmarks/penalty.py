@@ -1,9 +1,9 @@
-"""A Simulation whose contact barrier is replaced by a quadratic penalty (the baseline).
+"""The quadratic penalty baseline: a scene's contact as a penalty instead of IPC's barrier.
 
 Everything else is the real solver: the same integrator, elasticity (with its inversion
 bound), projected Newton and line search, candidate sets and statistics. Only the contact
-terms change (``ipcsim/potentials/penalty_contact.py``), and with them the CCD filter
-disappears.
+terms change, chosen the way any scene chooses them (``contact.formulation = "penalty"``,
+see ``ipcsim/potentials/terms.py``), and with them the CCD filter disappears.
 
 The stiffness is given as a multiple c of W/d̂, W the weight of the heaviest simulated
 body: k = c·W/d̂ is the spring that holds that body up with a penetration of d̂/c when a
@@ -14,11 +14,14 @@ iterations); 1e5 is in between.
 
 from __future__ import annotations
 
+import dataclasses
+from pathlib import Path
+
 import numpy as np
 
-from ipcsim.potentials.penalty_contact import PenaltyMeshContact, PenaltyPlaneContact
-from ipcsim.simulation import GRAVITY, Simulation
-from ipcsim.solver.incremental import IncrementalPotential
+from ipcsim.model.builder import build_model
+from ipcsim.model.model import GRAVITY
+from ipcsim.scene import load_scene, save_scene
 
 STIFFNESS_FACTORS = (1e3, 1e5, 1e7)
 
@@ -36,25 +39,10 @@ def penalty_stiffness(model, factor: float) -> float:
     return factor * heaviest_weight(model) / model.dhat
 
 
-def penalty_simulation(model, stiffness: float) -> Simulation:
-    """Simulation(model) with its plane and mesh contact terms swapped for penalties of
-    stiffness k, and the incremental potential rebuilt over the same terms otherwise."""
-    sim = Simulation(model)
-    swap = {}
-    if sim.plane_contact is not None:
-        old = sim.plane_contact
-        sim.plane_contact = PenaltyPlaneContact(model.plane_contact_vertices,
-                                                model.plane_origins, model.plane_normals,
-                                                model.dhat, stiffness)
-        swap[id(old)] = sim.plane_contact
-    if sim.mesh_contact is not None:
-        old = sim.mesh_contact
-        sim.mesh_contact = PenaltyMeshContact(model, model.rest_positions, model.dhat,
-                                              stiffness)
-        swap[id(old)] = sim.mesh_contact
-    sim.contacts = [c for c in (sim.plane_contact, sim.mesh_contact) if c is not None]
-    for c in sim.contacts:
-        c.kappa = sim.state.kappa  # set by the simulation, unused by the energy
-    terms = [[w, swap.get(id(t), t)] for w, t in sim.potential.terms]
-    sim.potential = IncrementalPotential(terms, sim.timer)
-    return sim
+def penalty_scene(scene: Path, factor: float) -> Path:
+    """Write ``scene`` with penalty contact of stiffness c·W/d̂ beside it (a .toml named
+    after c) and return its path."""
+    spec = load_scene(scene)
+    k = penalty_stiffness(build_model(spec), factor)
+    spec = dataclasses.replace(spec, contact_formulation="penalty", penalty_stiffness=k)
+    return save_scene(spec, scene.with_name(f"{scene.stem}_penalty_{factor:.0e}.toml"))

@@ -208,7 +208,7 @@ def simulate(scene: SceneDef, s: Settings, folder: Path, duration: float) -> Run
     row = {"min_distance": np.inf}
     n_steps = round(duration / s.dt)
     for k in range(1, n_steps + 1):
-        row = sim.step()["step"]
+        row = sim.step().row
         wall += row["wall_s"]
         iterations += row["newton_iterations"]
         capped += row["hit_iteration_cap"]

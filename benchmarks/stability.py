@@ -13,11 +13,11 @@ cube's size wider than the cube, d̂ far below the clearance), a mass ratio of 1
 cube on a light one) and an interlocked chain of four links hanging from a fixed one.
 
 Every scene is generated into the output folder (meshes from ``box_tet_mesh`` and
-``benchmarks/stability_meshes.py``) and writes a frame per step. ipcsim runs through
-``ipcsim run``; the penalty variant drives the same Simulation with penalty terms and the
-same frame writer. Afterwards the exact checker (``check_frame``, as ``ipcsim check
---frames``) goes over every frame, and penetration depths are measured: below a plane, and
-of each body's vertices inside another body's closed surface (winding number).
+``benchmarks/stability_meshes.py``) and writes a frame per step. Both variants run
+through ``ipcsim run``, the penalty one on the same scene with ``contact.formulation =
+"penalty"``. Afterwards the exact checker (``check_frame``, as ``ipcsim check --frames``)
+goes over every frame, and penetration depths are measured: below a plane, and of each
+body's vertices inside another body's closed surface (winding number).
 
 Without ``--smoke`` the results go to docs/benchmarks/stability.csv and
 docs/benchmarks/stability_table.md, and the charts to docs/benchmarks/stability_speed.png
@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.penalty import STIFFNESS_FACTORS, penalty_simulation, penalty_stiffness
+from benchmarks.penalty import STIFFNESS_FACTORS, penalty_scene
 from benchmarks.stability_meshes import chain_placements, link_mesh, slot_mesh
 from ipcsim.model.generate import box_tet_mesh, write_msh
 
@@ -214,45 +214,8 @@ def run_barrier(scene: Path, out: Path, steps: int | None, budget: float) -> dic
 
 def run_penalty(scene: Path, out: Path, factor: float, steps: int | None,
                 budget: float) -> dict:
-    """The ``ipcsim run`` loop with penalty contact: scene.toml, a frame per step and
-    steps.csv, so that the same analysis reads both."""
-    from ipcsim.io.csv_log import StepLog
-    from ipcsim.io.output_folder import prepare_output_folder
-    from ipcsim.io.vtk import FrameWriter
-    from ipcsim.model.builder import build_model
-    from ipcsim.scene import load_scene, save_scene
-
-    t0 = time.perf_counter()
-    spec = load_scene(scene)
-    model = build_model(spec)
-    out = prepare_output_folder(out, True)
-    save_scene(spec, out / "scene.toml")
-    n_steps = spec.n_steps if steps is None else min(steps, spec.n_steps)
-    reason = ""
-    with StepLog(out / "steps.csv") as log:
-        try:
-            with wall_budget(budget):
-                sim = penalty_simulation(model, penalty_stiffness(model, factor))
-                frames = FrameWriter(out, tets=model.tets,
-                                     triangles=model.kinematic_surface_triangles,
-                                     body_id=model.vertex_shape)
-                kin = model.always_kinematic.astype(np.int8)
-                frames.write(0, 0.0, sim.state.x, sim.state.v, kinematic=kin)
-                for _ in range(n_steps):
-                    row = sim.step()["step"]
-                    log.append(row)
-                    if not np.all(np.isfinite(sim.state.x)):
-                        raise FloatingPointError("positions became non-finite")
-                    k = sim.state.step
-                    frames.write(k, k * spec.dt, sim.state.x, sim.state.v, kinematic=kin)
-        except KeyboardInterrupt:
-            reason = f"wall budget ({budget:g} s)"
-        except Exception as exc:  # the baseline's failures are results, not crashes
-            reason = f"{type(exc).__name__}: {exc}"
-            if time.perf_counter() - t0 >= budget:  # the alarm went off inside a kernel
-                reason = f"wall budget ({budget:g} s)"
-    return {"status": 0 if not reason else 3, "reason": reason,
-            "wall_s": time.perf_counter() - t0}
+    """``ipcsim run`` of the scene with penalty contact at k = c·W/d̂."""
+    return run_barrier(penalty_scene(scene, factor), out, steps, budget)
 
 
 # -- analysis ----------------------------------------------------------------------------------

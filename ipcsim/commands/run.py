@@ -158,9 +158,9 @@ def main(args) -> int:
         try:
             while sim.state.step < n_steps:
                 report = sim.step()
-                row = report["step"]
+                row = report.row
                 step_log.append(row)
-                for it in report["newton"]:
+                for it in report.newton:
                     newton_log.append(it)
                 steps_done += 1
                 newton_total += row["newton_iterations"]

@@ -12,6 +12,9 @@ potential, both over free DOFs: κ balances the two forces. During Newton, κ do
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass, replace
+
 import numpy as np
 
 from ..kernels.barrier import barrier_second_derivative
@@ -37,3 +40,42 @@ def balanced_kappa(g_barrier: np.ndarray, g_rest: np.ndarray, kappa_min: float,
 def should_double(prev_min_d_sq: float, min_d_sq: float, eps_sq: float) -> bool:
     """The original's update: contacts tighter than dTol and getting tighter."""
     return prev_min_d_sq < eps_sq and min_d_sq < eps_sq and min_d_sq < prev_min_d_sq
+
+
+@dataclass(frozen=True)
+class BarrierStiffness:
+    """κ and the state its adaptation carries through one time step.
+
+    ``adaptive`` False: κ is the scene's fixed value. Otherwise κ is balanced once, at the
+    first Newton iterate of the step with a contact, and doubled while the closest
+    contact keeps closing in below dTol (``min_distance_sq`` is the last iterate's)."""
+
+    kappa: float
+    kappa_min: float
+    kappa_max: float
+    eps_sq: float  # (dTol·l)²
+    adaptive: bool = True
+    balanced: bool = False
+    min_distance_sq: float = math.inf
+
+    def new_step(self) -> "BarrierStiffness":
+        """The state at the start of a step: κ carried over, nothing balanced yet."""
+        return replace(self, balanced=not self.adaptive, min_distance_sq=math.inf)
+
+    def needs_balance(self, contacts: int) -> bool:
+        return self.adaptive and contacts > 0 and not self.balanced
+
+    def at_iterate(self, contacts: int, min_distance: float, g_barrier=None,
+                   g_rest=None) -> "BarrierStiffness":
+        """κ for the Newton iterate with ``contacts`` active pairs and closest distance
+        ``min_distance``; ``g_barrier`` / ``g_rest`` (free DOFs) when it needs balance."""
+        if not self.adaptive:
+            return self
+        kappa, balanced = self.kappa, self.balanced
+        if self.needs_balance(contacts):
+            kappa = balanced_kappa(g_barrier, g_rest, self.kappa_min, self.kappa_max)
+            balanced = True
+        d_sq = min_distance * min_distance
+        if should_double(self.min_distance_sq, d_sq, self.eps_sq):
+            kappa = min(self.kappa_max, 2.0 * kappa)
+        return replace(self, kappa=kappa, balanced=balanced, min_distance_sq=d_sq)

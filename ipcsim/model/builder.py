@@ -25,11 +25,12 @@ import numpy as np
 from ..errors import MeshError, SceneError
 from ..scene.spec import SUPPORTED_SCRIPTS, SceneSpec, ShapeSpec
 from . import mesh_io
+from . import legacy_scripts
 from .kinematics import rotation_axis_angle, rotation_xyz
-from .model import DirichletSet, MeshSequence, Model, NeumannSet
+from .model import (GRAVITY, DirichletSet, MeshSequence, Model, NeumannSet, SolverSettings,
+                    TimeSettings)
 from .surface import boundary_triangles, unique_edges
 
-GRAVITY = (0.0, -9.80665, 0.0)  # m/s^2, y up
 SEQUENCE_EXT = {"tet": "msh", "surface": "obj", "segments": "seg", "points": "pt"}
 ENERGY_NAMES = {"NH": "neo-Hookean", "FCR": "fixed corotated"}
 
@@ -187,66 +188,6 @@ def _load_obstacle(scene: SceneSpec, k: int, ob) -> _Part:
                  triangles=triangles, line=ob.line)
 
 
-# ----------------------------------------------------------------------------- legacy scripts
-
-
-def _legacy_script_sets(scene: SceneSpec, parts, offsets, rest, initial, warnings):
-    """DBC sets of the hard-coded legacy scenarios (§4.8); returns (sets, new initial)."""
-    name = scene.script
-    sets: list[DirichletSet] = []
-    lo, hi = initial.min(axis=0), initial.max(axis=0)
-    rng = hi - lo
-    src = f"script {name}"
-    if name == "fall":
-        # shift all initial positions up by half the scene AABB diagonal
-        initial = initial.copy()
-        initial[:, 1] += 0.5 * float(np.linalg.norm(rng))
-    elif name == "fallNoShift":
-        pass
-    elif name == "DCOFix":
-        for p in parts:
-            if p.kind != "tet":
-                sets.append(DirichletSet(np.arange(offsets[p.index], offsets[p.index + 1]),
-                                         source=f"{src}: shape {p.index + 1} fixed"))
-    elif name == "DCORotCylinders":
-        if len(parts) < 4:
-            raise _scene_error(scene, None, "script DCORotCylinders needs at least 4 shapes")
-        omegas = [(math.pi / 2, 0, 0), (-math.pi / 2, 0, 0), (0, 0, -math.pi / 2),
-                  (0, 0, math.pi / 2)]  # rad/s, about each shape's initial AABB centre
-        for k in range(4):
-            x = initial[offsets[k]:offsets[k + 1]]
-            centre = tuple(0.5 * (x.min(axis=0) + x.max(axis=0)))
-            sets.append(DirichletSet(np.arange(offsets[k], offsets[k + 1]),
-                                     angular_velocity=omegas[k], centre=centre,
-                                     source=f"{src}: shape {k + 1} rotating"))
-    elif name == "twist":
-        # slabs of relative thickness handleRatio at min / max x of the REST positions,
-        # rotating -0.4 pi and +0.4 pi rad/s about x through the rest-AABB centre
-        rlo, rhi = rest.min(axis=0), rest.max(axis=0)
-        r = scene.handle_ratio * (rhi[0] - rlo[0])
-        left = rest[:, 0] < rlo[0] + r
-        right = ~left & (rest[:, 0] > rhi[0] - r)
-        centre = tuple(0.5 * (rlo + rhi))
-        sets.append(DirichletSet(np.flatnonzero(left), angular_velocity=(-0.4 * math.pi, 0, 0),
-                                 centre=centre, source=f"{src}: min-x handle"))
-        sets.append(DirichletSet(np.flatnonzero(right), angular_velocity=(0.4 * math.pi, 0, 0),
-                                 centre=centre, source=f"{src}: max-x handle"))
-    elif name == "fixLowerHalf":
-        lower = initial[:, 1] < lo[1] + 0.5 * rng[1]
-        sets.append(DirichletSet(np.flatnonzero(lower), source=f"{src}: lower half fixed"))
-    elif name == "pushRightMost1":
-        right = np.flatnonzero(initial[:, 0] > hi[0] - 1e-3 * rng[0])
-        sets.append(DirichletSet(right[:1], linear_velocity=(-0.15, 0.0, 0.0),
-                                 source=f"{src}: right-most vertex pushed"))
-    else:
-        raise _scene_error(scene, None, f"script '{name}' is not supported "
-                                        f"(supported: {', '.join(SUPPORTED_SCRIPTS)})")
-    for s in sets:
-        if len(s.vertices) == 0:
-            warnings.append(f"{s.source}: selects no vertex")
-    return [s for s in sets if len(s.vertices)], initial
-
-
 # ----------------------------------------------------------------------------- build
 
 
@@ -261,24 +202,64 @@ def build_model(scene: SceneSpec) -> Model:
 
 
 def _build_model(scene: SceneSpec) -> Model:
+    """The stages of §5.1, each a function of what the ones before produced."""
+    _check_global_settings(scene)
     warnings: list[str] = []
-    null_script = scene.script == "null"
+    parts = [_load_shape(scene, i, s, warnings) for i, s in enumerate(scene.shapes)]
+    if not any(p.kind == "tet" for p in parts):
+        raise _scene_error(scene, None, "the scene needs at least one tetrahedral shape "
+                                        "(.msh, .vtk, .vtu or TetGen .node/.ele)")
+    offsets = np.concatenate([[0], np.cumsum([len(p.points) for p in parts])]).astype(np.int64)
+    rest, initial = _place_scene(scene, np.concatenate([p.points for p in parts]))
+    motion = _prescribed_motion(scene, parts, offsets, rest, initial, warnings)
+    obstacles = [_load_obstacle(scene, len(parts) + k, ob)
+                 for k, ob in enumerate(scene.mesh_obstacles)]
+    all_parts = parts + obstacles
+    for ob in obstacles:  # fixed surfaces after the scene's shapes (never rescaled, §8.15)
+        rest = np.concatenate([rest, ob.points])
+        motion.initial = np.concatenate([motion.initial, ob.points])
+        offsets = np.append(offsets, len(rest))
+        motion.always = np.concatenate([motion.always, np.ones(len(ob.points), dtype=bool)])
+    elastic = _elastic_tets(scene, all_parts, offsets, rest)
+    mesh = _collision_mesh(scene, all_parts, offsets, rest, elastic)
+    bbox_diagonal = _tet_bbox_diagonal(scene, rest, elastic.tets)
+    velocities = _initial_velocities(scene, parts, offsets, motion, warnings)
+    initial = _apply_restart(scene, int(offsets[len(parts)]), motion.initial, velocities)
+    model = Model(
+        time=TimeSettings(scene.dt, scene.n_steps, scene.integrator, scene.newmark_beta,
+                          scene.newmark_gamma),
+        solver=_solver_settings(scene, bbox_diagonal),
+        energy=scene.energy,
+        rest_positions=rest, initial_positions=initial, initial_velocities=velocities,
+        mass=mesh.mass, vertex_shape=np.repeat(np.arange(len(all_parts)), np.diff(offsets)),
+        always_kinematic=motion.always,
+        tets=elastic.tets, tet_shape=elastic.tet_shape, rest_volumes=elastic.volumes,
+        Dm_inv=elastic.dm_inv, lame=elastic.lame,
+        elastic_tets=_elastic_shapes(all_parts, offsets, motion.always)[elastic.tet_shape],
+        shape_names=tuple(p.name for p in all_parts),
+        shape_kinds=tuple(p.kind for p in all_parts), shape_offsets=offsets,
+        surface_triangles=mesh.triangles, triangle_shape=mesh.triangle_shape,
+        surface_edges=mesh.edges, edge_shape=mesh.edge_shape,
+        surface_vertices=mesh.vertices,
+        **_planes(scene), **_contact_parameters(scene, bbox_diagonal),
+        dbc_sets=tuple(motion.dbc_sets), nbc_sets=tuple(motion.nbc_sets),
+        mesh_sequences=tuple(motion.sequences), dbc_time_range=scene.dbc_time_range,
+        nbc_time_range=scene.nbc_time_range, terms=(), warnings=tuple(warnings),
+    )
+    return dataclasses.replace(model, terms=describe_terms(model, scene))
+
+
+def _check_global_settings(scene: SceneSpec) -> None:
     if scene.script not in SUPPORTED_SCRIPTS:
         raise _scene_error(scene, None, f"script '{scene.script}' is not supported "
                                         f"(supported: {', '.join(SUPPORTED_SCRIPTS)})")
     if scene.density <= 0.0 or scene.youngs_modulus <= 0.0:
         raise _scene_error(scene, None, "density and Young's modulus must be positive")
 
-    parts = [_load_shape(scene, i, s, warnings) for i, s in enumerate(scene.shapes)]
-    if not any(p.kind == "tet" for p in parts):
-        raise _scene_error(scene, None, "the scene needs at least one tetrahedral shape "
-                                        "(.msh, .vtk, .vtu or TetGen .node/.ele)")
-    n_scene = len(parts)
-    counts = np.array([len(p.points) for p in parts], dtype=np.int64)
-    offsets = np.concatenate([[0], np.cumsum(counts)])
-    rest = np.concatenate([p.points for p in parts])
-    initial = rest.copy()
 
+def _place_scene(scene: SceneSpec, placed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(rest, initial) positions after ``rotateModel`` and ``size`` (§5.1 step 2)."""
+    rest, initial = placed, placed.copy()
     # rotateModel: initial positions only, about the axis through (max - min) / 2 (quirk)
     if scene.rotate_model is not None and scene.rotate_model[3] != 0.0:
         axis = np.asarray(scene.rotate_model[:3], dtype=np.float64)
@@ -293,86 +274,131 @@ def _build_model(scene: SceneSpec) -> Model:
         rest, initial = rest * f, initial * f
         shift = initial.min(axis=0)
         rest, initial = rest - shift, initial - shift
+    return rest, initial
 
-    # legacy scripts and per-shape kinematics (script null)
-    dbc_sets: list[DirichletSet] = []
-    nbc_sets: list[NeumannSet] = []
-    sequences: list[MeshSequence] = []
-    always = np.zeros(len(rest), dtype=bool)
+
+# ----------------------------------------------------------------------------- motion
+
+
+@dataclass
+class _Motion:
+    """What is prescribed: DBC and NBC sets, mesh sequences, the always-kinematic mask,
+    and the initial positions (a legacy script may move them)."""
+
+    initial: np.ndarray
+    always: np.ndarray
+    dbc_sets: list = field(default_factory=list)
+    nbc_sets: list = field(default_factory=list)
+    sequences: list = field(default_factory=list)
+
+
+def _label(scene: SceneSpec, i: int) -> str:
+    spec = scene.shapes[i]
+    return f"shape {i + 1} ({spec.path or spec.mesh_path.name})"
+
+
+def _prescribed_motion(scene, parts, offsets, rest, initial, warnings) -> _Motion:
+    """NBCs of every shape; with script ``null`` the shapes' own velocities, mesh
+    sequences and DBCs; otherwise the legacy script's sets (§5.1 step 4)."""
+    motion = _Motion(initial=initial, always=np.zeros(len(rest), dtype=bool))
+    null_script = scene.script == "null"
     for p in parts:
-        rng_i = np.arange(offsets[p.index], offsets[p.index + 1])
-        spec = scene.shapes[p.index]
-        label = f"shape {p.index + 1} ({spec.path or spec.mesh_path.name})"
         if p.kind != "tet":
-            always[rng_i] = True  # codim shapes are never simulated
+            motion.always[offsets[p.index]:offsets[p.index + 1]] = True  # never simulated
         for verts, nb, j in p.nbc:  # NBCs apply whatever the script
-            src = f"{label} NBC {j + 1}"
+            src = f"{_label(scene, p.index)} NBC {j + 1}"
             if len(verts) == 0:
                 warnings.append(f"{src}: box selects no boundary vertex; no BC created")
                 continue
-            nbc_sets.append(NeumannSet(verts + offsets[p.index], tuple(nb.acceleration),
-                                       tuple(nb.time_range), gated=True, source=src))
-        if not null_script:
-            continue
-        lin, ang = spec.linear_velocity, spec.angular_velocity_deg
-        if spec.mesh_sequence is not None:
-            always[rng_i] = True
-            sequences.append(_mesh_sequence(scene, p, offsets, initial, warnings))
-        elif lin is not None or ang is not None:
-            always[rng_i] = True
-            dbc_sets.append(DirichletSet(
-                rng_i, linear_velocity=tuple(lin or (0.0, 0.0, 0.0)),
-                angular_velocity=tuple(math.radians(w) for w in (ang or (0.0, 0.0, 0.0))),
-                source=f"{label} velocity"))
-        elif p.kind != "tet":
-            dbc_sets.append(DirichletSet(rng_i, source=f"{label} (codim, fixed)"))
+            motion.nbc_sets.append(NeumannSet(verts + offsets[p.index], tuple(nb.acceleration),
+                                              tuple(nb.time_range), gated=True, source=src))
+        if null_script:
+            _shape_motion(scene, p, offsets, motion, warnings)
     if null_script:
         for p in parts:
-            spec = scene.shapes[p.index]
-            label = f"shape {p.index + 1} ({spec.path or spec.mesh_path.name})"
-            for verts, d, j in p.dbc:
-                src = f"{label} DBC {j + 1}"
-                if len(verts) == 0:
-                    warnings.append(f"{src}: box selects no boundary vertex; no BC created")
-                    continue
-                dbc_sets.append(DirichletSet(
-                    verts + offsets[p.index], linear_velocity=tuple(d.linear_velocity),
-                    angular_velocity=tuple(math.radians(w) for w in d.angular_velocity_deg),
-                    time_range=tuple(d.time_range), gated=True, source=src))
+            _shape_dirichlet_sets(scene, p, offsets, motion, warnings)
     else:
-        ignored = [k for k, present in (
-            ("DBC", any(s.dbc for s in scene.shapes)),
-            ("linearVelocity", any(s.linear_velocity is not None for s in scene.shapes)),
-            ("angularVelocity", any(s.angular_velocity_deg is not None for s in scene.shapes)),
-            ("initVel", any(s.init_velocity is not None for s in scene.shapes)),
-            ("meshSeq", any(s.mesh_sequence is not None for s in scene.shapes))) if present]
-        if ignored:
-            warnings.append(f"script {scene.script}: per-shape {', '.join(ignored)} "
-                            "not applied (as in the original)")
-        if scene.script != "DCOFix" and any(p.kind != "tet" for p in parts):
-            warnings.append(f"script {scene.script}: codim shapes are kept fixed "
-                            "(ipcsim does not simulate codim shapes)")
-        legacy, initial = _legacy_script_sets(scene, parts, offsets, rest, initial, warnings)
-        dbc_sets.extend(legacy)
+        _warn_ignored_shape_motion(scene, parts, warnings)
+        sets, motion.initial = legacy_scripts.script_sets(scene, parts, offsets, rest,
+                                                          motion.initial, warnings)
+        motion.dbc_sets.extend(sets)
+    return motion
 
-    # meshCO obstacles: fixed surfaces appended after the scene's shapes (not rescaled)
-    obstacles = [_load_obstacle(scene, n_scene + k, ob)
-                 for k, ob in enumerate(scene.mesh_obstacles)]
-    for ob in obstacles:
-        rest = np.concatenate([rest, ob.points])
-        initial = np.concatenate([initial, ob.points])
-        offsets = np.append(offsets, len(rest))
-        always = np.concatenate([always, np.ones(len(ob.points), dtype=bool)])
-    all_parts = parts + obstacles
-    n = len(rest)
-    vertex_shape = np.repeat(np.arange(len(all_parts)), np.diff(offsets))
 
-    # tets: rest shape, materials, masses
-    tet_blocks = [p.tets + offsets[p.index] for p in all_parts]
-    tets = np.concatenate(tet_blocks).astype(np.int64)
-    tet_counts = np.array([len(p.tets) for p in all_parts], dtype=np.int64)
-    tet_offsets = np.concatenate([[0], np.cumsum(tet_counts)])
-    tet_shape = np.repeat(np.arange(len(all_parts)), tet_counts)
+def _shape_motion(scene, p: _Part, offsets, motion: _Motion, warnings) -> None:
+    """A shape's own prescribed motion (script null): a mesh sequence, a linear/angular
+    velocity, or, for a codim shape without either, staying fixed."""
+    rng_i = np.arange(offsets[p.index], offsets[p.index + 1])
+    spec = scene.shapes[p.index]
+    lin, ang = spec.linear_velocity, spec.angular_velocity_deg
+    if spec.mesh_sequence is not None:
+        motion.always[rng_i] = True
+        motion.sequences.append(_mesh_sequence(scene, p, offsets, motion.initial, warnings))
+    elif lin is not None or ang is not None:
+        motion.always[rng_i] = True
+        motion.dbc_sets.append(DirichletSet(
+            rng_i, linear_velocity=tuple(lin or (0.0, 0.0, 0.0)),
+            angular_velocity=tuple(math.radians(w) for w in (ang or (0.0, 0.0, 0.0))),
+            source=f"{_label(scene, p.index)} velocity"))
+    elif p.kind != "tet":
+        motion.dbc_sets.append(DirichletSet(rng_i,
+                                            source=f"{_label(scene, p.index)} (codim, fixed)"))
+
+
+def _shape_dirichlet_sets(scene, p: _Part, offsets, motion: _Motion, warnings) -> None:
+    for verts, d, j in p.dbc:
+        src = f"{_label(scene, p.index)} DBC {j + 1}"
+        if len(verts) == 0:
+            warnings.append(f"{src}: box selects no boundary vertex; no BC created")
+            continue
+        motion.dbc_sets.append(DirichletSet(
+            verts + offsets[p.index], linear_velocity=tuple(d.linear_velocity),
+            angular_velocity=tuple(math.radians(w) for w in d.angular_velocity_deg),
+            time_range=tuple(d.time_range), gated=True, source=src))
+
+
+def _warn_ignored_shape_motion(scene, parts, warnings) -> None:
+    """A legacy script replaces the shapes' own motion, as in the original."""
+    ignored = [k for k, present in (
+        ("DBC", any(s.dbc for s in scene.shapes)),
+        ("linearVelocity", any(s.linear_velocity is not None for s in scene.shapes)),
+        ("angularVelocity", any(s.angular_velocity_deg is not None for s in scene.shapes)),
+        ("initVel", any(s.init_velocity is not None for s in scene.shapes)),
+        ("meshSeq", any(s.mesh_sequence is not None for s in scene.shapes))) if present]
+    if ignored:
+        warnings.append(f"script {scene.script}: per-shape {', '.join(ignored)} "
+                        "not applied (as in the original)")
+    if scene.script != "DCOFix" and any(p.kind != "tet" for p in parts):
+        warnings.append(f"script {scene.script}: codim shapes are kept fixed "
+                        "(ipcsim does not simulate codim shapes)")
+
+
+def _elastic_shapes(all_parts, offsets, always) -> np.ndarray:
+    """(s,) bool: tet shapes that are simulated (velocity / meshSeq tet shapes are not)."""
+    elastic = np.array([p.kind == "tet" for p in all_parts], dtype=bool)
+    for i in range(len(all_parts)):
+        if elastic[i] and np.all(always[offsets[i]:offsets[i + 1]]):
+            elastic[i] = False
+    return elastic
+
+
+# ----------------------------------------------------------------------------- tets, masses
+
+
+@dataclass
+class _Elastic:
+    tets: np.ndarray  # (m, 4) global vertex indices
+    tet_shape: np.ndarray  # (m,)
+    volumes: np.ndarray  # (m,) rest volumes
+    dm_inv: np.ndarray  # (m, 3, 3)
+    lame: np.ndarray  # (m, 2)
+    mass: np.ndarray  # (n,) lumped tet masses
+
+
+def _elastic_tets(scene, all_parts, offsets, rest) -> _Elastic:
+    """Rest shapes Dm⁻¹, volumes, Lamé parameters and lumped masses of every tet."""
+    tets = np.concatenate([p.tets + offsets[p.index] for p in all_parts]).astype(np.int64)
+    tet_shape = np.repeat(np.arange(len(all_parts)), [len(p.tets) for p in all_parts])
     mat = np.array([p.material for p in all_parts], dtype=np.float64).reshape(-1, 3)
     x0 = rest[tets[:, 0]]
     dm = np.stack([rest[tets[:, 1]] - x0, rest[tets[:, 2]] - x0, rest[tets[:, 3]] - x0],
@@ -382,16 +408,30 @@ def _build_model(scene: SceneSpec) -> Model:
         bad = int(np.flatnonzero(~(vol > 0.0))[0])
         raise _scene_error(scene, all_parts[tet_shape[bad]].line,
                            "placement or `size` made a tetrahedron degenerate")
-    dm_inv = np.linalg.inv(dm)
-    lame = lame_parameters(mat[tet_shape, 1], mat[tet_shape, 2])
     rho_tet = mat[tet_shape, 0]
     # lumped mass: each tet gives rho V / 4 to each of its 4 vertices
-    mass = np.bincount(tets.ravel(), weights=np.repeat(rho_tet * vol / 4.0, 4), minlength=n)
+    mass = np.bincount(tets.ravel(), weights=np.repeat(rho_tet * vol / 4.0, 4),
+                       minlength=len(rest))
+    return _Elastic(tets, tet_shape, vol, np.linalg.inv(dm),
+                    lame_parameters(mat[tet_shape, 1], mat[tet_shape, 2]), mass)
 
-    # collision mesh and codim masses
+
+@dataclass
+class _CollisionMesh:
+    triangles: np.ndarray
+    triangle_shape: np.ndarray
+    edges: np.ndarray
+    edge_shape: np.ndarray
+    vertices: np.ndarray  # sorted: every vertex that can collide
+    mass: np.ndarray  # (n,) tet masses plus the codim shapes' masses (§5.2)
+
+
+def _collision_mesh(scene, all_parts, offsets, rest, elastic: _Elastic) -> _CollisionMesh:
+    """Surface triangles, edges and points of every shape, and the masses of codim
+    shapes: Voronoi shells for .obj, rods for .seg, the mean tet-vertex mass for .pt."""
+    n = len(rest)
+    mass = elastic.mass.copy()
     tri_blocks, tri_shape, edge_blocks, edge_shape, point_blocks = [], [], [], [], []
-    tet_vertex = np.zeros(n, dtype=bool)
-    tet_vertex[tets.ravel()] = True
     for p in all_parts:
         off = offsets[p.index]
         if len(p.triangles):
@@ -414,106 +454,122 @@ def _build_model(scene: SceneSpec) -> Model:
                                                               * seg_len**3 / 12.0, 2), minlength=n)
         if p.kind == "points":
             point_blocks.append(np.arange(offsets[p.index], offsets[p.index + 1]))
+    tet_vertex = np.zeros(n, dtype=bool)
+    tet_vertex[elastic.tets.ravel()] = True
     avg_tet_mass = float(mass[tet_vertex].mean())
     for pts in point_blocks:  # point clouds: the average tet-vertex mass each
         mass[pts] = avg_tet_mass
-    empty3, empty2 = np.zeros((0, 3), np.int64), np.zeros((0, 2), np.int64)
-    surface_triangles = np.concatenate(tri_blocks) if tri_blocks else empty3
-    triangle_shape = np.concatenate(tri_shape) if tri_shape else np.zeros(0, np.int64)
-    surface_edges = np.concatenate(edge_blocks) if edge_blocks else empty2
-    edge_shape_arr = np.concatenate(edge_shape) if edge_shape else np.zeros(0, np.int64)
-    surface_vertices = np.unique(np.concatenate(
-        [surface_triangles.ravel(), surface_edges.ravel(), *point_blocks,
-         np.zeros(0, np.int64)]).astype(np.int64))
+    triangles = _stack(tri_blocks, (0, 3))
+    edges = _stack(edge_blocks, (0, 2))
+    vertices = np.unique(np.concatenate([triangles.ravel(), edges.ravel(), *point_blocks,
+                                         np.zeros(0, np.int64)]).astype(np.int64))
+    return _CollisionMesh(triangles, _stack(tri_shape, (0,)), edges, _stack(edge_shape, (0,)),
+                          vertices, mass)
 
-    # l: rest AABB diagonal of all tet shapes
-    tet_rest = rest[tet_vertex]
+
+def _stack(blocks, empty_shape) -> np.ndarray:
+    return np.concatenate(blocks) if blocks else np.zeros(empty_shape, np.int64)
+
+
+def _tet_bbox_diagonal(scene, rest, tets) -> float:
+    """l: the rest AABB diagonal of all tet shapes, the unit of relative parameters."""
+    tet_rest = rest[np.unique(tets)]
     l = float(np.linalg.norm(tet_rest.max(axis=0) - tet_rest.min(axis=0)))
     if not l > 0.0:
         raise _scene_error(scene, None, "the tet shapes have a zero bounding box")
+    return l
 
-    # initial velocities: initVel on tet shapes (script null), v + w x (x - c)
-    velocities = np.zeros((n, 3))
-    scripted = always.copy()
-    for s in dbc_sets:
-        scripted[s.vertices] = True  # the original never gives DBC vertices an initVel
-    if null_script:
-        for p in parts:
-            iv = scene.shapes[p.index].init_velocity
-            if iv is None:
-                continue
-            if p.kind != "tet":
-                warnings.append(f"shape {p.index + 1}: initVel ignored on a codim shape")
-                continue
-            sl = slice(offsets[p.index], offsets[p.index + 1])
-            x = initial[sl]
-            c = 0.5 * (x.min(axis=0) + x.max(axis=0))  # initial AABB centre of the shape
-            w = np.radians(np.asarray(iv.angular_deg, dtype=np.float64))
-            v = np.asarray(iv.linear, dtype=np.float64) + np.cross(w, x - c)
-            v[scripted[sl]] = 0.0
-            velocities[sl] = v
 
-    restart_step = 0
-    if scene.restart is not None:
-        restart_step, pos, vel = mesh_io.read_status(scene.restart)
-        n_own = int(offsets[n_scene])
-        if len(pos) != n_own:
-            raise SceneError(scene.restart, None, f"restart file has {len(pos)} vertices, "
-                                                  f"the scene has {n_own}")
-        initial[:n_own], velocities[:n_own] = pos, vel
+# ----------------------------------------------------------------------------- initial state
 
-    # analytic planes
-    if scene.planes:
-        origins = np.array([p.origin for p in scene.planes], dtype=np.float64)
-        normals = np.array([p.normal for p in scene.planes], dtype=np.float64)
-        norms = np.linalg.norm(normals, axis=1)
-        if np.any(~(norms > 0.0)):
-            raise _scene_error(scene, scene.planes[int(np.argmin(norms))].line,
-                               "half-space normal must be non-zero")
-        normals = normals / norms[:, None]
-        friction = np.array([p.friction for p in scene.planes], dtype=np.float64)
-    else:
-        origins, normals, friction = np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0)
 
-    # absolute parameters (§4.4): relative ones times l unless useAbsParameters
+def _initial_velocities(scene, parts, offsets, motion: _Motion, warnings) -> np.ndarray:
+    """initVel on tet shapes (script null): v + ω × (x − c), c the shape's initial AABB
+    centre; kinematic vertices start at rest (the original never gives DBC vertices an
+    initVel)."""
+    velocities = np.zeros((len(motion.always), 3))
+    if scene.script != "null":
+        return velocities
+    scripted = motion.always.copy()
+    for s in motion.dbc_sets:
+        scripted[s.vertices] = True
+    for p in parts:
+        iv = scene.shapes[p.index].init_velocity
+        if iv is None:
+            continue
+        if p.kind != "tet":
+            warnings.append(f"shape {p.index + 1}: initVel ignored on a codim shape")
+            continue
+        sl = slice(offsets[p.index], offsets[p.index + 1])
+        x = motion.initial[sl]
+        c = 0.5 * (x.min(axis=0) + x.max(axis=0))
+        w = np.radians(np.asarray(iv.angular_deg, dtype=np.float64))
+        v = np.asarray(iv.linear, dtype=np.float64) + np.cross(w, x - c)
+        v[scripted[sl]] = 0.0
+        velocities[sl] = v
+    return velocities
+
+
+def _apply_restart(scene, n_own: int, initial, velocities) -> np.ndarray:
+    """Positions and velocities of the scene's own vertices from a ``restart`` status
+    file (in place for the velocities); the clock still starts at 0, as the original."""
+    if scene.restart is None:
+        return initial
+    _, pos, vel = mesh_io.read_status(scene.restart)
+    if len(pos) != n_own:
+        raise SceneError(scene.restart, None, f"restart file has {len(pos)} vertices, "
+                                              f"the scene has {n_own}")
+    initial = initial.copy()
+    initial[:n_own], velocities[:n_own] = pos, vel
+    return initial
+
+
+# ----------------------------------------------------------------------------- parameters
+
+
+def _planes(scene) -> dict:
+    """Analytic planes: origins, unit normals (solid side opposite), friction."""
+    if not scene.planes:
+        return dict(plane_origins=np.zeros((0, 3)), plane_normals=np.zeros((0, 3)),
+                    plane_friction=np.zeros(0))
+    origins = np.array([p.origin for p in scene.planes], dtype=np.float64)
+    normals = np.array([p.normal for p in scene.planes], dtype=np.float64)
+    norms = np.linalg.norm(normals, axis=1)
+    if np.any(~(norms > 0.0)):
+        raise _scene_error(scene, scene.planes[int(np.argmin(norms))].line,
+                           "half-space normal must be non-zero")
+    return dict(plane_origins=origins, plane_normals=normals / norms[:, None],
+                plane_friction=np.array([p.friction for p in scene.planes], dtype=np.float64))
+
+
+def _contact_parameters(scene, l: float) -> dict:
+    """Absolute contact and damping parameters (§4.4): relative ones times l unless
+    useAbsParameters."""
     rel = 1.0 if scene.use_abs_parameters else l
-    dhat = scene.dhat_abs if scene.dhat_abs is not None else scene.dhat * rel
-    if scene.dhat_abs is not None and scene.dhat_start is None:
-        dhat_start = dhat
-    else:
-        dhat_start = (scene.dhat_start if scene.dhat_start is not None else scene.dhat) * rel
-    epsv = scene.epsv_abs if scene.epsv_abs is not None else scene.epsv * rel
-    kappa = scene.kappa if scene.kappa else None
     h = scene.dt
     damping = 0.75 * scene.damping_ratio * h**3 if scene.damping_ratio > 0 else max(
         scene.damping_stiff, 0.0)
-
-    kinds = tuple(p.kind for p in all_parts)
-    elastic_shape = np.array([k == "tet" for k in kinds], dtype=bool)
-    for i in range(len(all_parts)):
-        sl = slice(offsets[i], offsets[i + 1])
-        if elastic_shape[i] and np.all(always[sl]):
-            elastic_shape[i] = False  # velocity / meshSeq tet shapes are kinematic
-
-    model = Model(
-        scene=scene,
-        rest_positions=rest, initial_positions=initial, initial_velocities=velocities,
-        mass=mass, vertex_shape=vertex_shape, always_kinematic=always,
-        tets=tets, tet_shape=tet_shape, rest_volumes=vol, Dm_inv=dm_inv, lame=lame,
-        elastic_tets=elastic_shape[tet_shape],
-        shape_names=tuple(p.name for p in all_parts), shape_kinds=kinds,
-        shape_offsets=offsets.astype(np.int64), shape_tet_offsets=tet_offsets,
-        surface_triangles=surface_triangles, triangle_shape=triangle_shape,
-        surface_edges=surface_edges, edge_shape=edge_shape_arr,
-        surface_vertices=surface_vertices,
-        plane_origins=origins, plane_normals=normals, plane_friction=friction,
-        bbox_diagonal=l, dhat=float(dhat), dhat_start=float(dhat_start), epsv=float(epsv),
-        dtol=float(scene.dtol * rel), kappa=kappa, damping_stiffness=float(damping),
+    return dict(
+        bbox_diagonal=l,
+        dhat=float(scene.dhat_abs if scene.dhat_abs is not None else scene.dhat * rel),
+        epsv=float(scene.epsv_abs if scene.epsv_abs is not None else scene.epsv * rel),
+        dtol=float(scene.dtol * rel), kappa=scene.kappa if scene.kappa else None,
+        kappa_min_multiplier=float(scene.kappa_min_multiplier),
+        self_collision=bool(scene.self_collision), self_friction=float(scene.self_friction),
+        contact_formulation=scene.contact_formulation,
+        penalty_stiffness=float(scene.penalty_stiffness),
+        damping_stiffness=float(damping),
         gravity=np.array(GRAVITY if scene.gravity else (0.0, 0.0, 0.0)),
-        dbc_sets=tuple(dbc_sets), nbc_sets=tuple(nbc_sets), mesh_sequences=tuple(sequences),
-        restart_step=int(restart_step), terms=(), warnings=tuple(warnings),
     )
-    return dataclasses.replace(model, terms=describe_terms(model))
+
+
+def _solver_settings(scene, l: float) -> SolverSettings:
+    """Newton tolerances tol·l·h per step (as given with useAbsParameters) and the rest
+    of the solver's settings."""
+    scale = 1.0 if scene.use_abs_parameters else l * scene.dt
+    return SolverSettings(newton_tolerances=tuple(t * scale for t in scene.newton_tol),
+                          warm_start=int(scene.warm_start), linear_solver=scene.linear_solver,
+                          friction_iterations=int(scene.friction_iterations))
 
 
 def _mesh_sequence(scene: SceneSpec, p: _Part, offsets, initial, warnings) -> MeshSequence:
@@ -537,9 +593,8 @@ def _mesh_sequence(scene: SceneSpec, p: _Part, offsets, initial, warnings) -> Me
     return seq
 
 
-def describe_terms(model: Model) -> tuple[str, ...]:
+def describe_terms(model: Model, scene: SceneSpec) -> tuple[str, ...]:
     """Human-readable list of exactly the terms the scene needs."""
-    scene = model.scene
     terms = []
     if scene.integrator == "NM":
         terms.append(f"inertia (Newmark, beta={scene.newmark_beta:g}, "

@@ -42,13 +42,7 @@ def rotation_axis_angle(axis, angle: float) -> np.ndarray:
 
 def active_dirichlet_sets(model: Model, t: float):
     """The DBC sets active during the step that starts at time t."""
-    gate = model.scene.dbc_time_range
-    return [s for s in model.dbc_sets if s.active(t, gate)]
-
-
-def kinematic_mask(model: Model, t: float) -> np.ndarray:
-    """(n,) bool: vertices whose motion is prescribed during the step starting at t."""
-    return model.kinematic_mask_at(t)
+    return [s for s in model.dbc_sets if s.active(t, model.dbc_time_range)]
 
 
 @lru_cache(maxsize=8)
@@ -68,7 +62,7 @@ def kinematic_targets(model: Model, x: np.ndarray, t_step_start: float, h: float
     shape goes to frame k = step (default round(t / h)), i.e. ``<folder>/<k>.<ext>``.
     """
     x = np.asarray(x, dtype=np.float64)
-    mask = kinematic_mask(model, t_step_start)
+    mask = model.kinematic_mask_at(t_step_start)
     targets = np.array(x, copy=True)
     for s in active_dirichlet_sets(model, t_step_start):
         if not s.moving:
@@ -99,12 +93,12 @@ def nbc_accelerations(model: Model, t: float) -> np.ndarray:
     """(n, 3) sum of the Neumann accelerations active at time t, zero on kinematic vertices
     (the extra potential is -h^2 m_i a . x_i, i.e. force m_i a)."""
     acc = np.zeros((model.n_vertices, 3))
-    gate = model.scene.nbc_time_range
+    gate = model.nbc_time_range
     any_active = False
     for s in model.nbc_sets:
         if s.active(t, gate):
             acc[s.vertices] += np.asarray(s.acceleration, dtype=np.float64)  # unique vertices
             any_active = True
     if any_active:
-        acc[kinematic_mask(model, t)] = 0.0
+        acc[model.kinematic_mask_at(t)] = 0.0
     return acc

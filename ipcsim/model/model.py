@@ -12,14 +12,13 @@ rest bounding-box diagonal l where the scene says so.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..scene.spec import SceneSpec
-
 INF = math.inf
+GRAVITY = (0.0, -9.80665, 0.0)  # m/s², y up, as the original
 
 
 def _freeze(obj, names) -> None:
@@ -112,10 +111,41 @@ class MeshSequence:
         return Path(self.folder) / f"{k}.{self.ext}"
 
 
+@dataclass(frozen=True)
+class TimeSettings:
+    """The clock and the integrator: backward Euler ("BE") or Newmark ("NM", β, γ)."""
+
+    dt: float  # s
+    n_steps: int
+    integrator: str = "BE"
+    newmark_beta: float = 0.25
+    newmark_gamma: float = 0.5
+
+
+@dataclass(frozen=True)
+class SolverSettings:
+    """Every number Newton, its line search and the friction lagging use."""
+
+    newton_tolerances: tuple[float, ...]  # absolute ‖p‖∞ per step; later steps the last
+    warm_start: int = 0  # the original's warmStart 0..5
+    linear_solver: str | None = None  # None: the fastest installed
+    max_newton_iterations: int = 5000  # reported in steps.csv and warned about when hit
+    friction_iterations: int = 1  # fricIterAmt: lagging updates per step (≤ 0: until settled)
+    friction_iteration_cap: int = 20  # fricIterAmt ≤ 0: lagging updates per step at most
+    friction_tol_fraction: float = 0.1  # with friction: Newton tolerance ≤ this · ε_v·h
+    kinematic_completion: float = 1e-3  # prescribed motion done when ≥ 99.9 % of it is
+    max_halvings: int = 40  # line-search halvings before giving up
+    roundoff_tolerance_factor: float = 1e3  # failed line search within this · tol: converged
+
+    def newton_tol(self, step: int) -> float:
+        """Absolute tolerance on ‖p‖∞ of step ``step`` (0-based)."""
+        return self.newton_tolerances[min(step, len(self.newton_tolerances) - 1)]
+
+
 _ARRAY_FIELDS = (
     "rest_positions", "initial_positions", "initial_velocities", "tets", "tet_shape",
     "rest_volumes", "Dm_inv", "lame", "mass", "vertex_shape", "shape_offsets",
-    "shape_tet_offsets", "surface_triangles", "triangle_shape", "surface_edges", "edge_shape",
+    "surface_triangles", "triangle_shape", "surface_edges", "edge_shape",
     "surface_vertices", "plane_origins", "plane_normals", "plane_friction", "always_kinematic",
     "elastic_tets", "gravity",
 )
@@ -123,9 +153,12 @@ _ARRAY_FIELDS = (
 
 @dataclass(frozen=True, eq=False)
 class Model:
-    """Everything the simulation needs that does not change during a run."""
+    """Everything the simulation needs that does not change during a run. Nothing after
+    the builder reads the scene: every setting is resolved into these fields."""
 
-    scene: SceneSpec
+    time: TimeSettings
+    solver: SolverSettings
+    energy: str  # "NH" (neo-Hookean) | "FCR" (fixed corotated)
 
     # vertices (n)
     rest_positions: np.ndarray  # (n, 3) float64
@@ -147,7 +180,6 @@ class Model:
     shape_names: tuple[str, ...]
     shape_kinds: tuple[str, ...]  # "tet" | "surface" | "segments" | "points" | "obstacle"
     shape_offsets: np.ndarray  # (s + 1,) vertex range of shape i is [off[i], off[i+1])
-    shape_tet_offsets: np.ndarray  # (s + 1,) tet range of shape i
 
     # collision mesh
     surface_triangles: np.ndarray  # (k, 3) int64; tet boundaries outward, .obj and meshCO
@@ -164,10 +196,14 @@ class Model:
     # absolute parameters
     bbox_diagonal: float  # l: rest AABB diagonal of all tet shapes
     dhat: float  # barrier activation distance (m)
-    dhat_start: float  # start of the d-hat homotopy (= dhat unless `tuning` says otherwise)
     epsv: float  # static-friction velocity threshold (m/s)
     dtol: float  # tiny-distance tolerance (m)
     kappa: float | None  # barrier stiffness; None = adaptive
+    kappa_min_multiplier: float  # c in κ_min = c·m̄ / (4 d₀ b''(d₀))
+    self_collision: bool  # contact between (and within) the scene's own shapes
+    self_friction: float  # μ of every mesh–mesh contact
+    contact_formulation: str  # "barrier" (IPC) | "penalty" (the baseline of benchmarks/)
+    penalty_stiffness: float  # k of the penalty formulation (N/m per pair)
     damping_stiffness: float  # effective dampingStiff (dampingRatio r > 0: 0.75 r h^3)
     gravity: np.ndarray  # (3,) m/s^2 (zeros with turnOffGravity)
 
@@ -175,7 +211,8 @@ class Model:
     dbc_sets: tuple[DirichletSet, ...]
     nbc_sets: tuple[NeumannSet, ...]
     mesh_sequences: tuple[MeshSequence, ...]
-    restart_step: int  # step counter read from a `restart` file (0 without)
+    dbc_time_range: tuple[float, float]  # the scene's DBCTimeRange gate
+    nbc_time_range: tuple[float, float]  # the scene's NBCTimeRange gate
 
     # what the scene needs, and what the builder noticed
     terms: tuple[str, ...]
@@ -206,14 +243,19 @@ class Model:
     def n_planes(self) -> int:
         return len(self.plane_origins)
 
+    @property
+    def dt(self) -> float:
+        return self.time.dt
+
+    @property
+    def n_steps(self) -> int:
+        return self.time.n_steps
+
     # ---------------------------------------------------------------- parameters
     def newton_tol(self, step: int) -> float:
         """Absolute Newton tolerance on ||p||_inf for step ``step`` (0-based):
         tol * l * h, or tol as given with useAbsParameters."""
-        tol = self.scene.newton_tol_at(step)
-        if self.scene.use_abs_parameters:
-            return tol
-        return tol * self.bbox_diagonal * self.scene.dt
+        return self.solver.newton_tol(step)
 
     # ---------------------------------------------------------------- which terms
     @property
@@ -225,7 +267,7 @@ class Model:
         """Self collision on and the scene's own shapes have something that can touch:
         some triangle (PT pairs even within one body), two edges, or an edge and another
         point."""
-        if not self.scene.self_collision:
+        if not self.self_collision:
             return False
         own_tri = int(np.count_nonzero(~self._obstacle_mask(self.triangle_shape)))
         own_edges = int(np.count_nonzero(~self._obstacle_mask(self.edge_shape)))
@@ -247,7 +289,7 @@ class Model:
         """Some contact with mu > 0: a plane with friction, or mesh contact (self contact
         or meshCO obstacles) with selfFric, which every mesh contact uses."""
         planes = bool(np.any(self.plane_friction > 0.0))
-        return planes or (self.scene.self_friction > 0.0 and self.needs_mesh_contact)
+        return planes or (self.self_friction > 0.0 and self.needs_mesh_contact)
 
     @property
     def needs_damping(self) -> bool:
@@ -291,17 +333,13 @@ class Model:
             "planes": self.n_planes,
             "l (bbox diagonal)": self.bbox_diagonal,
             "dhat": self.dhat,
-            "steps": self.scene.n_steps,
+            "steps": self.n_steps,
         }
 
     def kinematic_mask_at(self, t: float) -> np.ndarray:
         """(n,) bool: vertices kinematic during the step starting at time t."""
         mask = np.array(self.always_kinematic, copy=True)
         for s in self.dbc_sets:
-            if s.active(t, self.scene.dbc_time_range):
+            if s.active(t, self.dbc_time_range):
                 mask[s.vertices] = True
         return mask
-
-
-def model_field_names() -> tuple[str, ...]:
-    return tuple(f.name for f in fields(Model))

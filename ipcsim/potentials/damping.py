@@ -1,39 +1,42 @@
 """Lagged Rayleigh damping, as the original's ``dampingStiff`` / ``dampingRatio``:
 
-    ½ Δxᵀ D Δx,   Δx = x − xₙ,   D = (k/h) · w K(xₙ)
+    ½ Δxᵀ D Δx,   Δx = x − xₙ,   D = (k/h) · w ∇²Ψ(xₙ)
 
-where w K is the (PSD-projected) Hessian of the weighted elastic term at the start of the
-step (w = h² for backward Euler) and k the damping stiffness. D is fixed during the step;
-its triplets reuse the elastic term's index arrays, so assembly reuses their pattern.
+where w∇²Ψ is the (PSD-projected) Hessian of the weighted elastic term at the start of
+the step (w = h² for backward Euler) and k the damping stiffness. D is fixed during the
+step (``ctx.damping``, made by ``lag``); its triplets reuse the elastic term's index arrays,
+so assembly reuses their pattern.
 """
 
 from __future__ import annotations
 
-from .base import Triplets
+from dataclasses import dataclass
+from typing import ClassVar
+
+from .base import LaggedDamping, StepContext, Triplets
 
 
+@dataclass(frozen=True, eq=False)
 class Damping:
-    name = "damping"
-    constant_pattern = True
+    scale: float  # k/h · w
+    name: ClassVar[str] = "damping"
+    constant_pattern: ClassVar[bool] = True
 
-    def __init__(self, stiffness: float, h: float, elastic_weight: float):
-        self.scale = stiffness / h * elastic_weight
-        self.x_start = None
-        self.D = None
+    @staticmethod
+    def of(stiffness: float, h: float, elastic_weight: float) -> "Damping":
+        return Damping(stiffness / h * elastic_weight)
 
-    def start_step(self, x_start, elastic_hessian: Triplets):
-        n = x_start.size
-        self.x_start = x_start.copy()
-        self._triplets = Triplets(elastic_hessian.rows, elastic_hessian.cols,
-                                  self.scale * elastic_hessian.vals)
-        self.D = self._triplets.tocsr(n)  # for the value and gradient
+    def lag(self, x_start, elastic_hessian: Triplets) -> LaggedDamping:
+        """D at the start of a step from the elastic term's Hessian there."""
+        triplets = elastic_hessian.scaled(self.scale)
+        return LaggedDamping(x_start.copy(), triplets, triplets.tocsr(x_start.size))
 
-    def value(self, x):
-        dx = (x - self.x_start).reshape(-1)
-        return 0.5 * float(dx @ (self.D @ dx))
+    def value(self, x, ctx: StepContext):
+        dx = (x - ctx.damping.x_start).reshape(-1)
+        return 0.5 * float(dx @ (ctx.damping.matrix @ dx))
 
-    def gradient(self, x):
-        return self.D @ (x - self.x_start).reshape(-1)
+    def gradient(self, x, ctx: StepContext):
+        return ctx.damping.matrix @ (x - ctx.damping.x_start).reshape(-1)
 
-    def hessian(self, x):
-        return self._triplets
+    def hessian(self, x, ctx: StepContext):
+        return ctx.damping.triplets

@@ -17,6 +17,10 @@ elements and returns 1.
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+from functools import partial
+from typing import ClassVar
+
 import numpy as np
 
 from ..kernels import elasticity as kern
@@ -35,44 +39,58 @@ def _frozen(a: np.ndarray) -> np.ndarray:
     return a
 
 
+@dataclass(frozen=True, eq=False)
 class Elasticity:
     """Elastic energy of m tets over n vertices.
 
     tets (m, 4) int, Dm_inv (m, 3, 3), volumes (m,) rest volumes, lame (m, 2) = (μ, λ) per tet
     (a single (μ, λ) pair is broadcast), energy "NH" or "FCR", n_vertices = n.
-    Positions may be passed as (n, 3) or flat (3n,).
+    Positions may be passed as (n, 3) or flat (3n,). The step context is not used.
     """
 
-    name = "elasticity"
-    constant_pattern = True  # same triplet index arrays on every call
+    tets: np.ndarray
+    Dm_inv: np.ndarray
+    volumes: np.ndarray
+    lame: np.ndarray
+    energy: str
+    n_vertices: int
+    min_volume_ratio: float = 0.1
+    name: ClassVar[str] = "elasticity"
+    constant_pattern: ClassVar[bool] = True  # same triplet index arrays on every call
+    model: int = field(init=False, repr=False)
+    _rows: np.ndarray = field(init=False, repr=False)
+    _cols: np.ndarray = field(init=False, repr=False)
 
-    def __init__(self, tets, Dm_inv, volumes, lame, energy: str, n_vertices: int, min_volume_ratio: float = 0.1):
-        key = str(energy).replace("-", "").replace("_", "").replace(" ", "").upper()
+    def __post_init__(self):
+        key = str(self.energy).replace("-", "").replace("_", "").replace(" ", "").upper()
         if key not in _MODELS:
-            raise ValueError(f"unknown elastic energy {energy!r}; expected 'NH' or 'FCR'")
-        self.energy = "NH" if _MODELS[key] == kern.NEO_HOOKEAN else "FCR"
-        self.model = _MODELS[key]
-        self.n_vertices = int(n_vertices)
+            raise ValueError(f"unknown elastic energy {self.energy!r}; expected 'NH' or 'FCR'")
+        put = partial(object.__setattr__, self)
+        put("model", _MODELS[key])
+        put("energy", "NH" if self.model == kern.NEO_HOOKEAN else "FCR")
+        put("n_vertices", int(self.n_vertices))
         # private writeable C-contiguous copies: the Model's arrays are read-only, and numba
         # compiles a separate specialisation of every kernel for read-only arguments
-        self.tets = np.array(tets, dtype=np.int64, order="C", copy=True).reshape(-1, 4)
-        m = len(self.tets)
-        self.Dm_inv = np.array(Dm_inv, dtype=np.float64, order="C", copy=True).reshape(m, 3, 3)
-        self.volumes = np.array(volumes, dtype=np.float64, order="C", copy=True).reshape(m)
-        self.lame = np.array(np.broadcast_to(np.asarray(lame, dtype=np.float64), (m, 2)), order="C", copy=True)
-        if m and (self.tets.min() < 0 or self.tets.max() >= self.n_vertices):
+        tets = np.array(self.tets, dtype=np.int64, order="C", copy=True).reshape(-1, 4)
+        m = len(tets)
+        put("tets", tets)
+        put("Dm_inv", np.array(self.Dm_inv, dtype=np.float64, order="C", copy=True).reshape(m, 3, 3))
+        put("volumes", np.array(self.volumes, dtype=np.float64, order="C", copy=True).reshape(m))
+        put("lame", np.array(np.broadcast_to(np.asarray(self.lame, dtype=np.float64), (m, 2)),
+                             order="C", copy=True))
+        if m and (tets.min() < 0 or tets.max() >= self.n_vertices):
             raise ValueError("tet vertex index out of range")
-        if not (0.0 <= min_volume_ratio < 1.0):
+        if not (0.0 <= self.min_volume_ratio < 1.0):
             raise ValueError("min_volume_ratio must lie in [0, 1)")
-        self.min_volume_ratio = float(min_volume_ratio)
+        put("min_volume_ratio", float(self.min_volume_ratio))
         # the Hessian pattern never changes and is shared (read-only) by every Triplets returned
-        rows, cols = kern.tet_hessian_pattern(self.tets)
-        self._rows = _frozen(rows)
-        self._cols = _frozen(cols)
+        rows, cols = kern.tet_hessian_pattern(tets)
+        put("_rows", _frozen(rows))
+        put("_cols", _frozen(cols))
 
     def _positions(self, x) -> np.ndarray:
         x = np.ascontiguousarray(x, dtype=np.float64).reshape(-1, 3)
-        if not x.flags.writeable:  # see __init__: keep one numba specialisation
+        if not x.flags.writeable:  # see __post_init__: keep one numba specialisation
             x = x.copy()
         if len(x) != self.n_vertices:
             raise ValueError(f"expected {self.n_vertices} vertices, got {len(x)}")
@@ -81,21 +99,22 @@ class Elasticity:
     def _args(self):
         return self.tets, self.Dm_inv, self.volumes, self.lame, self.model
 
-    def value(self, x) -> float:
+    def value(self, x, ctx=None) -> float:
         return float(kern.elastic_energy(self._positions(x), *self._args()))
 
     def per_tet_energy(self, x) -> np.ndarray:
         return kern.elastic_energy_per_tet(self._positions(x), *self._args())
 
-    def gradient(self, x) -> np.ndarray:
+    def gradient(self, x, ctx=None) -> np.ndarray:
         return kern.elastic_gradient(self._positions(x), *self._args())
 
-    def hessian(self, x, project_psd: bool = True) -> Triplets:
+    def hessian(self, x, ctx=None, project_psd: bool = True) -> Triplets:
         vals = kern.elastic_hessian_values(self._positions(x), *self._args(), bool(project_psd))
         return Triplets(self._rows, self._cols, vals)
 
-    def max_step(self, x, p) -> float:
+    def max_step(self, x, p, ctx=None) -> float:
         if self.model != kern.NEO_HOOKEAN or len(self.tets) == 0:
             return 1.0
-        alpha = kern.max_step_no_inversion(self._positions(x), self._positions(p), self.tets, self.min_volume_ratio)
+        alpha = kern.max_step_no_inversion(self._positions(x), self._positions(p), self.tets,
+                                           self.min_volume_ratio)
         return float(alpha)

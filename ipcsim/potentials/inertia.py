@@ -1,29 +1,35 @@
-"""Inertia: ½ (x − x̃)ᵀ M (x − x̃) with the lumped (diagonal) mass matrix M."""
+"""Inertia: ½ (x − x̃)ᵀ M (x − x̃) with the lumped (diagonal) mass matrix M; x̃ is the
+integrator's prediction of the step (``ctx.x_tilde``)."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+from typing import ClassVar
+
 import numpy as np
 
-from .base import Triplets
+from .base import StepContext, Triplets
 
 
+@dataclass(frozen=True, eq=False)
 class Inertia:
-    name = "inertia"
-    constant_pattern = True  # same triplet index arrays on every call
+    mass: np.ndarray  # (n,) lumped masses
+    name: ClassVar[str] = "inertia"
+    constant_pattern: ClassVar[bool] = True  # the same triplet index arrays on every call
+    _hessian: Triplets = field(init=False, repr=False)
 
-    def __init__(self, mass: np.ndarray):
-        self.mass = np.asarray(mass, dtype=float)
-        self.x_tilde = None  # (n, 3), the predicted positions; set once per step
-        n = len(self.mass)
-        dofs = np.arange(3 * n, dtype=np.int64)
-        self._hessian = Triplets(dofs, dofs, np.repeat(self.mass, 3))
+    def __post_init__(self):
+        mass = np.asarray(self.mass, dtype=float)
+        object.__setattr__(self, "mass", mass)
+        dofs = np.arange(3 * len(mass), dtype=np.int64)
+        object.__setattr__(self, "_hessian", Triplets(dofs, dofs, np.repeat(mass, 3)))
 
-    def value(self, x):
-        dx = x - self.x_tilde
+    def value(self, x, ctx: StepContext):
+        dx = x - ctx.x_tilde
         return 0.5 * float(np.einsum("i,ij,ij->", self.mass, dx, dx))
 
-    def gradient(self, x):
-        return (self.mass[:, None] * (x - self.x_tilde)).reshape(-1)
+    def gradient(self, x, ctx: StepContext):
+        return (self.mass[:, None] * (x - ctx.x_tilde)).reshape(-1)
 
-    def hessian(self, x):
+    def hessian(self, x, ctx: StepContext):
         return self._hessian

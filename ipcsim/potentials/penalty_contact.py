@@ -1,70 +1,70 @@
 """Quadratic penalty contact: the baseline that IPC's barrier is measured against.
 
-``PenaltyPlaneContact`` and ``PenaltyMeshContact`` keep the barrier terms' contact sets,
-candidate updates and statistics and replace the energy by
+Chosen with the scene's ``contact.formulation = "penalty"`` (see ``potentials.terms``).
+``PenaltyPlaneContact`` and ``PenaltyMeshContact`` use the same planes and collision sets
+as the barrier terms and replace the energy by
 
     P = ½ k Σ max(0, d̂ − d)²
 
 over the same pairs (signed d for planes, the unsigned closest-feature distance for mesh
-pairs; see ``ipcsim/kernels/penalty.py``). There is no feasibility filter: ``max_step`` is
-1, so nothing stops a step from crossing a surface. The stiffness k is fixed; ``kappa``
-is kept only because the simulation sets it on every contact term, and is not used.
+pairs; see ``ipcsim/kernels/penalty.py``), with a fixed stiffness k. There is no
+feasibility filter: ``max_step`` is 1, so nothing stops a step from crossing a surface.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import ClassVar
+
+from ..contact.planes import Planes
 from ..kernels import penalty as kp
-from .base import Triplets
-from .mesh_contact import MeshContact
-from .plane_contact import PlaneContact
+from .base import StepContext, Triplets
 
 
-class PenaltyPlaneContact(PlaneContact):
-    name = "plane penalty contact"
+@dataclass(frozen=True, eq=False)
+class PenaltyPlaneContact:
+    planes: Planes
+    dhat: float
+    stiffness: float
+    name: ClassVar[str] = "plane penalty contact"
+    constant_pattern: ClassVar[bool] = False
 
-    def __init__(self, vertices, origins, normals, dhat: float, stiffness: float):
-        super().__init__(vertices, origins, normals, dhat)
-        self.dhat = dhat
-        self.stiffness = float(stiffness)
+    def _args(self):
+        p = self.planes
+        return p.vertices, p.origins, p.normals, self.dhat, self.stiffness
 
-    def value(self, x):
-        return kp.plane_penalty_value(x, self.vertices, self.origins, self.normals,
-                                      self.dhat, self.stiffness)
+    def value(self, x, ctx: StepContext | None = None):
+        return kp.plane_penalty_value(x, *self._args())
 
-    def gradient(self, x):
-        return kp.plane_penalty_gradient(x, self.vertices, self.origins, self.normals,
-                                         self.dhat, self.stiffness)
+    def gradient(self, x, ctx: StepContext | None = None):
+        return kp.plane_penalty_gradient(x, *self._args())
 
-    def hessian(self, x):
-        return Triplets(*kp.plane_penalty_hessian(x, self.vertices, self.origins,
-                                                  self.normals, self.dhat, self.stiffness))
+    def hessian(self, x, ctx: StepContext | None = None):
+        return Triplets(*kp.plane_penalty_hessian(x, *self._args()))
 
-    def max_step(self, x, p):
+    def max_step(self, x, p, ctx: StepContext | None = None):
         return 1.0
 
 
-class PenaltyMeshContact(MeshContact):
-    name = "mesh penalty contact"
+@dataclass(frozen=True, eq=False)
+class PenaltyMeshContact:
+    dhat: float
+    stiffness: float
+    name: ClassVar[str] = "mesh penalty contact"
+    constant_pattern: ClassVar[bool] = False
 
-    def __init__(self, model, rest_positions, dhat: float, stiffness: float):
-        super().__init__(model, rest_positions, dhat)
-        self.stiffness = float(stiffness)
+    def value(self, x, ctx: StepContext):
+        c = ctx.collisions
+        return kp.mesh_penalty_value(x, c.pt, c.ee, self.dhat, self.stiffness)
 
-    def value(self, x):
-        pt, ee, _ = self._swept if self._swept is not None else self._candidates(x)
-        return kp.mesh_penalty_value(x, pt, ee, self.dhat, self.stiffness)
+    def gradient(self, x, ctx: StepContext):
+        c = ctx.collisions
+        return kp.mesh_penalty_gradient(x, c.pt, c.ee, self.dhat, self.stiffness)
 
-    def gradient(self, x):
-        pt, ee, _ = self.update(x)
-        return kp.mesh_penalty_gradient(x, pt, ee, self.dhat, self.stiffness)
+    def hessian(self, x, ctx: StepContext):
+        c = ctx.collisions
+        return Triplets(*kp.mesh_penalty_hessian(x, c.pt, c.ee, self.dhat, self.stiffness,
+                                                 True))
 
-    def hessian(self, x):
-        pt, ee, _ = self.update(x)
-        return Triplets(*kp.mesh_penalty_hessian(x, pt, ee, self.dhat, self.stiffness, True))
-
-    def max_step(self, x, p):
-        """No CCD: the full step is always allowed. The candidates over the swept segment
-        are still gathered, so that the line search's energies see every pair that comes
-        within d̂ along the step."""
-        self._swept = self._candidates(x, x + p.reshape(-1, 3))
+    def max_step(self, x, p, ctx: StepContext | None = None):
         return 1.0

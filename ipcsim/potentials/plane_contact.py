@@ -1,48 +1,42 @@
-"""Contact of surface vertices with planes (``ground``, ``halfSpace``): κ Σ b(d², d̂²)."""
+"""Contact of surface vertices with planes (``ground``, ``halfSpace``): Σ b(d², d̂²) over
+every (plane, vertex) pair, d the signed distance, at unit stiffness (the incremental
+potential multiplies barrier terms by κ). Its ``max_step`` is the planes' exact CCD."""
 
 from __future__ import annotations
 
-import numpy as np
+from dataclasses import dataclass
+from typing import ClassVar
 
+from ..contact.planes import Planes
 from ..kernels import plane_contact as k
-from .base import Triplets
+from .base import StepContext, Triplets
 
 # CCD stops a vertex at 10% of its current gap to a plane: never at zero distance.
 CCD_KEEP_FRACTION = 0.1
 
 
+@dataclass(frozen=True, eq=False)
 class PlaneContact:
-    name = "plane contact"
+    planes: Planes
+    dhat: float
+    name: ClassVar[str] = "plane contact"
+    constant_pattern: ClassVar[bool] = False
 
-    def __init__(self, vertices, origins, normals, dhat: float):
-        # writable copies: numba compiles a second version of every kernel for the
-        # model's read-only arrays
-        self.vertices = np.array(vertices, dtype=np.int64)
-        self.origins = np.array(origins, dtype=float).reshape(-1, 3)
-        self.normals = np.array(normals, dtype=float).reshape(-1, 3)
-        self.s_hat = dhat * dhat
-        self.kappa = 1.0
+    @property
+    def s_hat(self) -> float:
+        return self.dhat * self.dhat
 
-    def value(self, x):
-        return k.plane_barrier_value(x, self.vertices, self.origins, self.normals,
-                                     self.s_hat, self.kappa)
+    def _args(self):
+        return self.planes.vertices, self.planes.origins, self.planes.normals
 
-    def gradient(self, x):
-        return k.plane_barrier_gradient(x, self.vertices, self.origins, self.normals,
-                                        self.s_hat, self.kappa)
+    def value(self, x, ctx: StepContext | None = None):
+        return k.plane_barrier_value(x, *self._args(), self.s_hat, 1.0)
 
-    def hessian(self, x):
-        return Triplets(*k.plane_barrier_hessian(x, self.vertices, self.origins,
-                                                 self.normals, self.s_hat, self.kappa))
+    def gradient(self, x, ctx: StepContext | None = None):
+        return k.plane_barrier_gradient(x, *self._args(), self.s_hat, 1.0)
 
-    def max_step(self, x, p):
-        return k.plane_ccd_max_step(x, p, self.vertices, self.origins, self.normals,
-                                    CCD_KEEP_FRACTION)
+    def hessian(self, x, ctx: StepContext | None = None):
+        return Triplets(*k.plane_barrier_hessian(x, *self._args(), self.s_hat, 1.0))
 
-    def statistics(self, x):
-        """(active pair count, smallest vertex–plane distance)."""
-        return k.plane_active_count_and_min_distance(x, self.vertices, self.origins,
-                                                     self.normals, self.s_hat)
-
-    def min_distance_sq(self, x):
-        return self.statistics(x)[1] ** 2
+    def max_step(self, x, p, ctx: StepContext | None = None):
+        return k.plane_ccd_max_step(x, p, *self._args(), CCD_KEEP_FRACTION)

@@ -55,12 +55,13 @@ class Newmark:
         return v_new, a_new
 
 
-def make_integrator(name: str, h: float, beta: float = 0.25, gamma: float = 0.5):
-    if name == "BE":
-        return BackwardEuler(h)
-    if name == "NM":
-        return Newmark(h, beta, gamma)
-    raise ValueError(f"unknown integrator {name!r}")
+def make_integrator(time):
+    """The integrator of a model's ``TimeSettings``."""
+    if time.integrator == "BE":
+        return BackwardEuler(time.dt)
+    if time.integrator == "NM":
+        return Newmark(time.dt, time.newmark_beta, time.newmark_gamma)
+    raise ValueError(f"unknown integrator {time.integrator!r}")
 
 
 def fix_kinematic_velocities(v_new, a_new, kinematic, x_new, x, v, h):

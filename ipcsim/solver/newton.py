@@ -1,8 +1,10 @@
 """Projected Newton with a feasibility-filtered backtracking line search.
 
-One call minimises the incremental potential of a time step. Kinematic DOFs are
-eliminated: their part of the search direction is the remaining prescribed motion
-p_k = target − x_k, and the free part solves
+One call minimises an objective: anything with ``kinematic`` (n,) and ``target`` (n, 3),
+``evaluate(x, order) -> Evaluation`` (E, ∇E, PSD Hessian triplets) and ``max_step(x, p) ->
+LineSearch`` (the feasible α and the energy along p). Kinematic DOFs are eliminated: their
+part of the search direction is the remaining prescribed motion p_k = target − x_k, and the
+free part solves
 
     H_ff p_f = −g_f − H_fk p_k
 
@@ -19,35 +21,60 @@ least one Newton direction and a slow body does not stall below the tolerance.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from ..errors import NonFiniteError, SolverError
 from .assembly import Assembler
-from .incremental import IncrementalPotential
-
-# A prescribed motion counts as complete when ≥ 99.9 % of it is done, as in the original.
-KINEMATIC_COMPLETION = 1e-3
-MAX_HALVINGS = 40
-# A failed line search ends the step as converged when ‖p‖∞ is within this factor of tol.
-ROUNDOFF_TOLERANCE_FACTOR = 1e3
+from .timing import PhaseTimer
 
 
-@dataclass
+@dataclass(frozen=True)
 class NewtonResult:
+    """What one minimisation did. ``rows`` holds a newton.csv row per iteration;
+    ``final`` is the objective's evaluation at ``x`` (energy and contacts)."""
+
+    x: np.ndarray
+    final: object
     iterations: int = 0
     converged: bool = False
     hit_iteration_cap: bool = False
     min_alpha: float = 1.0
     kinematic_complete: bool = True
     line_search_failures: int = 0
+    rows: tuple[dict, ...] = field(default=(), repr=False)
+
+    def then(self, later: "NewtonResult") -> "NewtonResult":
+        """This minimisation followed by ``later`` from where it ended (a friction update)."""
+        return replace(later, iterations=self.iterations + later.iterations,
+                       hit_iteration_cap=self.hit_iteration_cap or later.hit_iteration_cap,
+                       min_alpha=min(self.min_alpha, later.min_alpha),
+                       line_search_failures=self.line_search_failures
+                       + later.line_search_failures, rows=self.rows + later.rows)
+
+
+@dataclass
+class _Progress:
+    """The running record of one ``solve``."""
+
+    prescribed: float  # ‖target − x‖∞ over kinematic DOFs at the start
+    iterations: int = 0
+    min_alpha: float = 1.0
+    kinematic_complete: bool = True
+    line_search_failures: int = 0
+    rows: list = field(default_factory=list)
 
 
 class NewtonSolver:
-    def __init__(self, linear_solver, max_iterations: int = 1000):
+    def __init__(self, settings, linear_solver, timer: PhaseTimer | None = None,
+                 observer=None):
+        """``settings``: the model's ``SolverSettings``; ``observer(row)``, when given,
+        receives each newton.csv row once it is complete (``ipcsim run -v``)."""
+        self.settings = settings
         self.linear_solver = linear_solver
-        self.max_iterations = max_iterations
+        self.timer = timer or PhaseTimer()
+        self.observer = observer
         self.assembler = Assembler()
         self._free = None  # (kinematic mask, DOF -> free index), reused while unchanged
 
@@ -59,113 +86,138 @@ class NewtonSolver:
             self._free = (kinematic.copy(), index)
         return self._free[1]
 
-    def solve(self, potential: IncrementalPotential, x: np.ndarray, kinematic: np.ndarray,
-              target: np.ndarray, tol: float, before_iteration=None, after_iteration=None):
-        """Minimise ``potential`` from ``x`` (n,3). ``kinematic`` (n,) bool marks vertices
-        that must reach ``target`` (n,3). Returns (x, NewtonResult).
-
-        ``before_iteration(x)`` refreshes contact sets and κ and returns True when that
-        changed the potential; ``after_iteration(x, info)`` receives a dict per iteration
-        for the Newton log.
-        """
-        timer = potential.timer
-        x = x.copy()
-        kin_dofs = np.repeat(kinematic, 3)
-        free_dofs = ~kin_dofs
-        n_free = int(free_dofs.sum())
-        free_index = self._free_index(kinematic)  # DOF -> free DOF number, −1 if kinematic
-        target_flat = target.reshape(-1)
-        prescribed = np.abs(target_flat[kin_dofs] - x.reshape(-1)[kin_dofs]).max(initial=0.0)
-        result = NewtonResult(kinematic_complete=prescribed == 0.0)
+    def solve(self, objective, x0: np.ndarray, tol: float) -> NewtonResult:
+        """Minimise ``objective`` from ``x0`` (n, 3) until ‖p‖∞ < tol with the prescribed
+        motion complete, or the iteration cap."""
+        x = x0.copy()
+        kin_dofs = np.repeat(objective.kinematic, 3)
+        target = objective.target.reshape(-1)
+        run = _Progress(np.abs(target[kin_dofs] - x.reshape(-1)[kin_dofs]).max(initial=0.0))
+        run.kinematic_complete = run.prescribed == 0.0
         energy = None  # E(x), known after a line search
-
-        for it in range(self.max_iterations):
-            if before_iteration is not None and before_iteration(x):
-                energy = None  # the potential itself changed (κ)
-            g = potential.gradient(x)
-            if not np.isfinite(g).all():
-                raise NonFiniteError("gradient", potential.nonfinite_terms(x), it)
-            static, dynamic = potential.hessian(x)
-            p = np.zeros(x.size)
-            p_kin = target_flat[kin_dofs] - x.reshape(-1)[kin_dofs]
-            remaining = np.abs(p_kin).max(initial=0.0)
-            if remaining <= KINEMATIC_COMPLETION * prescribed:
-                p_kin[:] = 0.0  # done: stop pushing the last 0.1 %
-                remaining = 0.0
-            result.kinematic_complete = remaining == 0.0
-            p[kin_dofs] = p_kin
-
-            with timer("assembly"):
-                A, coupling = self.assembler.assemble(static, dynamic, free_index, n_free, p)
-                rhs = -g[free_dofs] - coupling
-            with timer("solve"):
-                try:
-                    p[free_dofs] = self.linear_solver.solve(A, rhs) if n_free else 0.0
-                except SolverError:
-                    bad = potential.nonfinite_terms(x)
-                    if bad:  # a NaN in the matrix is the cause: name its term
-                        raise NonFiniteError("Hessian", bad, it) from None
-                    raise
-
-            if not np.isfinite(p).all():
-                raise NonFiniteError("Newton direction", potential.nonfinite_terms(x), it)
-            step_norm = np.abs(p[free_dofs]).max(initial=0.0)
-            info = {"iteration": it, "step_inf_norm": step_norm, "tolerance": tol,
-                    "gradient_norm": float(np.linalg.norm(g[free_dofs]))}
-            converged = result.kinematic_complete and step_norm < tol
+        kappa = None
+        for it in range(self.settings.max_newton_iterations):
+            ev = objective.evaluate(x, 2)
+            self._complete_last_row(run, ev)
+            if ev.kappa != kappa:
+                energy, kappa = None, ev.kappa  # the potential itself changed (κ)
+            if not np.isfinite(ev.gradient).all():
+                raise NonFiniteError("gradient", objective.nonfinite_terms(x), it)
+            p, remaining = self._direction(objective, x, ev, run, it)
+            step_norm = np.abs(p[~kin_dofs]).max(initial=0.0)
+            row = {"iteration": it, "step_inf_norm": step_norm, "tolerance": tol,
+                   "gradient_norm": float(np.linalg.norm(ev.gradient[~kin_dofs])),
+                   "kappa": ev.kappa,
+                   "residual_ratio": step_norm / tol if tol > 0 else np.nan}
+            converged = run.kinematic_complete and step_norm < tol
             if converged and step_norm == 0.0:
                 alpha = 0.0  # nothing left to do
+                energy = ev.energy if energy is None else energy
             else:
                 # a converged direction is still taken: it is nearly free (no solve) and,
                 # at a step's first iteration, it is the whole motion of a slow body
-                alpha = min(1.0, potential.max_step(x, p))
-                if not alpha >= 0.0:  # NaN: a bound (CCD, inversion) saw a non-finite input
-                    raise NonFiniteError("step bound", potential.nonfinite_terms(x, p), it)
-                if result.kinematic_complete:
-                    alpha, failed, energy = self._backtrack(potential, x, p, alpha, energy)
-                    if failed:
-                        # no step along p lowers E in floating point: x is a minimiser to
-                        # machine precision (typical when tol sits near round-off), unless
-                        # the step is far above the tolerance
-                        result.line_search_failures += 1
-                        result.min_alpha = 0.0
-                        result.converged = step_norm < ROUNDOFF_TOLERANCE_FACTOR * tol
-                        result.iterations = it + 1
-                        info.update(alpha=0.0, energy=energy)
-                        if after_iteration is not None:
-                            after_iteration(x, info)
-                        return x, result
-                x_new = x + alpha * p.reshape(-1, 3)
-                if alpha == 1.0 and remaining > 0.0:
-                    x_new[kinematic] = target[kinematic]  # land exactly on the targets
+                x_new, alpha, energy, failed = self._line_search(objective, x, p, remaining,
+                                                                 energy, run, it)
+                if failed:
+                    # no step along p lowers E in floating point: x is a minimiser to
+                    # machine precision (typical when tol sits near round-off), unless
+                    # the step is far above the tolerance
+                    run.line_search_failures += 1
+                    run.min_alpha = 0.0
+                    run.iterations = it + 1
+                    run.rows.append({**row, "alpha": 0.0, "energy": energy})
+                    return self._finish(objective, x, run,
+                                        converged=step_norm < self.settings
+                                        .roundoff_tolerance_factor * tol)
                 x = x_new
-                if not result.kinematic_complete:
-                    energy = potential.value(x)
-                result.min_alpha = min(result.min_alpha, alpha)
-            info["alpha"] = alpha
-            info["energy"] = potential.value(x) if energy is None else energy
-            if after_iteration is not None:
-                after_iteration(x, info)
+                run.min_alpha = min(run.min_alpha, alpha)
+            run.rows.append({**row, "alpha": alpha, "energy": energy})
             if converged:
-                result.converged = True
-                result.iterations = it + 1
-                return x, result
+                run.iterations = it + 1
+                return self._finish(objective, x, run, converged=True)
+        run.iterations = self.settings.max_newton_iterations
+        return self._finish(objective, x, run, converged=False, hit_cap=True)
 
-        result.iterations = self.max_iterations
-        result.hit_iteration_cap = True
-        return x, result
+    def _direction(self, objective, x, ev, run: _Progress, it: int):
+        """The Newton direction p (3n,) at x and the prescribed motion still remaining."""
+        kinematic = objective.kinematic
+        kin_dofs = np.repeat(kinematic, 3)
+        free_dofs = ~kin_dofs
+        free_index = self._free_index(kinematic)  # DOF -> free DOF number, −1 if kinematic
+        n_free = int(free_dofs.sum())
+        p = np.zeros(x.size)
+        p_kin = objective.target.reshape(-1)[kin_dofs] - x.reshape(-1)[kin_dofs]
+        remaining = np.abs(p_kin).max(initial=0.0)
+        if remaining <= self.settings.kinematic_completion * run.prescribed:
+            p_kin[:] = 0.0  # done: stop pushing the last 0.1 %
+            remaining = 0.0
+        run.kinematic_complete = remaining == 0.0
+        p[kin_dofs] = p_kin
+        static, dynamic = ev.hessian
+        with self.timer("assembly"):
+            A, coupling = self.assembler.assemble(static, dynamic, free_index, n_free, p)
+            rhs = -ev.gradient[free_dofs] - coupling
+        with self.timer("solve"):
+            try:
+                p[free_dofs] = self.linear_solver.solve(A, rhs) if n_free else 0.0
+            except SolverError:
+                bad = objective.nonfinite_terms(x)
+                if bad:  # a NaN in the matrix is the cause: name its term
+                    raise NonFiniteError("Hessian", bad, it) from None
+                raise
+        if not np.isfinite(p).all():
+            raise NonFiniteError("Newton direction", objective.nonfinite_terms(x), it)
+        return p, remaining
 
-    @staticmethod
-    def _backtrack(potential, x, p, alpha, e0=None):
+    def _line_search(self, objective, x, p, remaining, energy, run: _Progress, it: int):
+        """(x_new, α, E(x_new), failed): the feasible step along p, halved until E
+        decreases once the prescribed motion is complete."""
+        line = objective.max_step(x, p)
+        alpha = line.max_alpha
+        if not alpha >= 0.0:  # NaN: a bound (CCD, inversion) saw a non-finite input
+            raise NonFiniteError("step bound", objective.nonfinite_terms(x, p), it)
+        if run.kinematic_complete:
+            alpha, failed, energy = self._backtrack(line, alpha, energy, it)
+            if failed:
+                return x, 0.0, energy, True
+        x_new = x + alpha * line.p3
+        if alpha == 1.0 and remaining > 0.0:
+            kinematic = objective.kinematic
+            x_new[kinematic] = objective.target[kinematic]  # land exactly on the targets
+        if not run.kinematic_complete:
+            energy = line.energy_at(x_new)
+        return x_new, alpha, energy, False
+
+    def _backtrack(self, line, alpha, e0, it: int):
         """Halve α until E(x + αp) < E(x). Returns (α, True if it gave up, E at the point
         kept: x + αp, or x itself when it gave up). Equal energies count as no progress:
         they only occur once E has reached round-off."""
         if e0 is None:
-            e0 = potential.value(x)
-        p3 = p.reshape(-1, 3)
-        for _ in range(MAX_HALVINGS):
-            e = potential.value(x + alpha * p3)
+            e0 = line.energy(0.0)
+        if not np.isfinite(e0):
+            raise NonFiniteError("energy", line.objective.nonfinite_terms(line.x), it)
+        for _ in range(self.settings.max_halvings):
+            e = line.energy(alpha)
             if e < e0:
                 return alpha, False, e
             alpha *= 0.5
         return 0.0, True, e0
+
+    def _complete_last_row(self, run: _Progress, ev) -> None:
+        """The previous iteration's row gets the contacts at the iterate it ended at."""
+        if run.rows and "contacts_total" not in run.rows[-1]:
+            run.rows[-1].update(ev.contacts.as_row())
+            if self.observer is not None:
+                self.observer(run.rows[-1])
+
+    def _finish(self, objective, x, run: _Progress, converged: bool,
+                hit_cap: bool = False) -> NewtonResult:
+        final = objective.evaluate(x, 0)
+        if not np.isfinite(final.energy):
+            raise NonFiniteError("energy", objective.nonfinite_terms(x), run.iterations)
+        self._complete_last_row(run, final)
+        return NewtonResult(x=x, final=final, iterations=run.iterations, converged=converged,
+                            hit_iteration_cap=hit_cap, min_alpha=run.min_alpha,
+                            kinematic_complete=run.kinematic_complete,
+                            line_search_failures=run.line_search_failures,
+                            rows=tuple(run.rows))

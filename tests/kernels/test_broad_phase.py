@@ -10,8 +10,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ipcsim.contact.candidates import find_candidates
+from ipcsim.contact.candidates import find_candidates as _find_candidates
+from ipcsim.contact.collision_mesh import CollisionMesh
 from ipcsim.kernels import broad_phase as bp
+
+
+def find_candidates(x, points, edges, triangles, inflation, body=None, self_collision=True,
+                    kinematic=None, **options):
+    """The broad phase on a collision mesh made of the given primitives."""
+    mesh = CollisionMesh.of(len(x), points, edges, triangles, body, kinematic, self_collision)
+    return _find_candidates(mesh, x, inflation, **options)
 
 
 # ----------------------------------------------------------------------------- oracle

@@ -783,7 +783,14 @@ def _two_box_step(n=4, seed=0):
 
 
 def test_collision_free_step_on_two_boxes():
-    from ipcsim.contact.ccd import collision_free_step
+    from ipcsim.contact.ccd import collision_free_step as on_mesh
+    from ipcsim.contact.collision_mesh import CollisionMesh
+
+    def collision_free_step(X0, X1, sv, E, T, body_of_vertex=None, self_collision=True,
+                            kinematic_vertex_mask=None):
+        mesh = CollisionMesh.of(len(X0), sv, E, T, body_of_vertex, kinematic_vertex_mask,
+                                self_collision)
+        return on_mesh(mesh, X0, X1)
 
     X0, X1, T, E, body = _two_box_step()
     sv = np.arange(len(X0))

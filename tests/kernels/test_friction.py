@@ -20,7 +20,45 @@ from ipcsim.kernels import barrier as KB
 from ipcsim.kernels.contact_barrier import classify_and_distance
 from ipcsim.kernels import friction as KF
 from ipcsim.kernels import mollifier as M
-from ipcsim.potentials.friction import Friction
+from ipcsim.contact.collisions import Collisions
+from ipcsim.contact.friction_lag import lag_friction
+from ipcsim.contact.planes import Planes
+from ipcsim.potentials.base import StepContext
+from ipcsim.potentials.friction import Friction as FrictionTerm
+
+
+class Friction:
+    """The friction term with its lagged data, as one Newton solve sees it: ``lag``
+    freezes the data (``contact.friction_lag``), value/gradient/hessian evaluate the term
+    in a step context that holds it."""
+
+    def __init__(self, eps):
+        self.term = FrictionTerm(eps)
+        self.constant_pattern = self.term.constant_pattern
+        self.ctx = StepContext()
+
+    def lag(self, x_lag, pt, ee, eps_x, plane_vertices, origins, normals, plane_mu, mu_mesh,
+            kappa, dhat):
+        planes = Planes(plane_vertices, origins, normals, plane_mu)
+        self.ctx = StepContext(friction=lag_friction(
+            x_lag, x_lag, Collisions(pt, ee, np.asarray(eps_x, float)), planes, mu_mesh, kappa,
+            dhat))
+
+    def __getattr__(self, name):  # count, verts, coeffs, basis of the lagged data
+        return getattr(self.ctx.friction, name)
+
+    @property
+    def count(self):
+        return 0 if self.ctx.friction is None else self.ctx.friction.count
+
+    def value(self, x):
+        return self.term.value(x, self.ctx)
+
+    def gradient(self, x):
+        return self.term.gradient(x, self.ctx)
+
+    def hessian(self, x):
+        return self.term.hessian(x, self.ctx)
 from two_bodies import SCENES, boundary_faces, ipctk_scene, two_cubes
 
 

@@ -24,8 +24,7 @@ load_scene = scene_pkg.load_scene
 SCRIPTS = [p for p in example_scripts() if "segMeshes" not in p.parts]
 
 
-def _check_model(model):
-    scene = model.scene
+def _check_model(model, scene):
     n = model.n_vertices
     # vertex counts: every shape's file vertices, in scene order
     for i, spec in enumerate(scene.shapes):
@@ -66,9 +65,10 @@ def _check_model(model):
 @pytest.mark.skipif(not SCRIPTS, reason="../shared/ipc-examples is not present")
 @pytest.mark.parametrize("path", SCRIPTS, ids=lambda p: p.stem)
 def test_example_model(path):
-    model = build_model(load_scene(path))
-    _check_model(model)
-    script = model.scene.script
+    scene = load_scene(path)
+    model = build_model(scene)
+    _check_model(model, scene)
+    script = scene.script
     codim = [i for i, k in enumerate(model.shape_kinds) if k not in ("tet", "obstacle")]
     if script == "twist":
         assert len(model.dbc_sets) == 2 and all(s.moving for s in model.dbc_sets)
@@ -102,7 +102,8 @@ def test_project_scenes(repo_root):
     scenes += sorted(repo_root.joinpath("input").glob("*.toml"))
     assert any(p.name == "two_cubes_fall.txt" for p in scenes)
     for path in scenes:
-        _check_model(build_model(load_scene(path)))
+        scene = load_scene(path)
+        _check_model(build_model(scene), scene)
     model = build_model(load_scene(repo_root / "input/two_cubes_fall.txt"))
     assert model.n_tets == 2 * 750 and model.n_vertices == 2 * 216
     assert "friction (mu=0.1 mesh contacts, ground 0.1)" in model.terms

@@ -10,7 +10,7 @@ from scipy.spatial.transform import Rotation
 
 from ipcsim.errors import MeshError
 from ipcsim.model.builder import build_model
-from ipcsim.model.kinematics import (kinematic_mask, kinematic_targets, nbc_accelerations,
+from ipcsim.model.kinematics import (kinematic_targets, nbc_accelerations,
                                      rotation_axis_angle, rotation_xyz)
 from ipcsim.scene.spec import DirichletSpec, NeumannSpec, SceneSpec, ShapeSpec
 
@@ -64,12 +64,12 @@ def test_dbc_windows_gate_and_overlap(mesh_dir):
     mask, targets = kinematic_targets(model, x, 100 * h, h)  # t = 2.5: t0 <= t < t1
     assert mask[second.vertices].all() and mask.sum() == len(second.vertices)
     assert np.array_equal(targets, x)
-    assert kinematic_mask(model, 1.0)[third.vertices].all()
-    assert not kinematic_mask(model, 2.0)[third.vertices].any()
+    assert model.kinematic_mask_at(1.0)[third.vertices].all()
+    assert not model.kinematic_mask_at(2.0)[third.vertices].any()
     # the global DBCTimeRange gates per-shape DBCs
     gated = build_model(SceneSpec(shapes=shapes, dbc_time_range=(0.0, 1.0)))
-    assert kinematic_mask(gated, 0.5)[first.vertices].all()
-    assert not kinematic_mask(gated, 1.5).any()
+    assert gated.kinematic_mask_at(0.5)[first.vertices].all()
+    assert not gated.kinematic_mask_at(1.5).any()
 
 
 def test_later_set_overrides_earlier(mesh_dir):

@@ -1,16 +1,18 @@
-"""MeshContact.max_step: CCD first over twice the step's last α, then, only when nothing
-stops the motion there, over the whole direction. Both give the same safe step."""
+"""The line search's CCD bound (``contact.ccd.line_search_bound``): CCD first over twice
+the step's last α, then, only when nothing stops the motion there, over the whole
+direction. Both give the same safe step."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from ipcsim.contact.ccd import line_search_bound
+from ipcsim.contact.collision_mesh import CollisionMesh
+from ipcsim.contact.collisions import build_collisions, swept_collisions
 from ipcsim.contact.intersection import find_intersections
-from ipcsim.kernels.contact_barrier import classify_and_distance
 from ipcsim.model.builder import build_model
 from ipcsim.model.generate import box_tet_mesh, write_msh
-from ipcsim.potentials.mesh_contact import MeshContact
 from ipcsim.scene import load_scene
 
 DHAT = 0.01
@@ -36,33 +38,29 @@ def falling_cube(tmp_path_factory):
     return model, x, p
 
 
-def _min_distance(term, x):
-    pt, ee, _ = term._candidates(x)  # pairs within d̂
-    _, pt_d2, _, ee_d2 = classify_and_distance(x, pt, ee)
-    return np.sqrt(min(pt_d2.min(initial=np.inf), ee_d2.min(initial=np.inf)))
+def _min_distance(mesh, x):
+    return build_collisions(mesh, x, DHAT).count(DHAT).min_distance  # pairs within d̂
 
 
 def test_the_short_sweep_gives_the_whole_sweeps_step_and_it_is_safe(falling_cube):
     model, x, p = falling_cube
-    term = MeshContact(model, model.rest_positions, DHAT)
-    term.start_step()
-    whole = term.max_step(x, p.reshape(-1))  # first iteration of a step: β = 1
+    mesh = CollisionMesh.from_model(model)
+    whole = line_search_bound(mesh, x, p, DHAT).alpha  # first iteration of a step: β = 1
     assert 0.0 < whole < 0.05  # the 3 m throw is stopped after about 5 cm
-    swept_whole = len(term._candidates(x, x + p)[0])
-    staged = term.max_step(x, p.reshape(-1))  # now β = 2·whole
+    swept_whole = len(swept_collisions(mesh, x, x + p, DHAT).pt)
+    staged = line_search_bound(mesh, x, p, DHAT, previous_alpha=whole).alpha  # β = 2·whole
     assert staged == pytest.approx(whole, rel=1e-9)
-    short = len(term._candidates(x, x + 2 * whole * p)[0])
+    short = len(swept_collisions(mesh, x, x + 2 * whole * p, DHAT).pt)
     assert short < swept_whole / 5  # what the shortcut saves
     xa = x + staged * p
-    assert len(find_intersections(xa, term.edges, term.triangles)) == 0
-    assert _min_distance(term, xa) > 0.0
+    assert len(find_intersections(xa, mesh.edges, mesh.triangles)) == 0
+    assert _min_distance(mesh, xa) > 0.0
 
 
 def test_a_direction_free_beyond_the_short_sweep_is_swept_whole(falling_cube):
     model, x, p = falling_cube
-    term = MeshContact(model, model.rest_positions, DHAT)
-    term.start_step()
-    term.max_step(x, p.reshape(-1))  # a small α: the next try sweeps only 2α
+    mesh = CollisionMesh.from_model(model)
+    small = line_search_bound(mesh, x, p, DHAT).alpha  # a small α: the next try sweeps 2α
     away = np.zeros_like(x)
     away[model.vertex_shape == 1] = [0.0, 2.0, 0.0]  # straight up, nothing in the way
-    assert term.max_step(x, away.reshape(-1)) == 1.0
+    assert line_search_bound(mesh, x, away, DHAT, previous_alpha=small).alpha == 1.0

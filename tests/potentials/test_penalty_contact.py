@@ -6,10 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from ipcsim.contact.collision_mesh import CollisionMesh
+from ipcsim.contact.collisions import build_collisions
+from ipcsim.contact.planes import Planes
 from ipcsim.kernels import penalty as kp
 from ipcsim.model.builder import build_model
 from ipcsim.model.generate import box_tet_mesh, write_msh
-from ipcsim.potentials.base import Triplets
+from ipcsim.potentials.base import StepContext, Triplets
 from ipcsim.potentials.penalty_contact import PenaltyMeshContact, PenaltyPlaneContact
 from ipcsim.scene import load_scene
 
@@ -40,6 +43,26 @@ def _dense(term, x):
     return term.hessian(x).tocsr(x.size).toarray()
 
 
+class _AtPositions:
+    """A mesh term with the collision set rebuilt at whatever x it is given (what the
+    solver does at each Newton iterate), as a function of x alone."""
+
+    def __init__(self, term, model):
+        self.term, self.mesh = term, CollisionMesh.from_model(model)
+
+    def ctx(self, x):
+        return StepContext(collisions=build_collisions(self.mesh, x, DHAT))
+
+    def value(self, x):
+        return self.term.value(x, self.ctx(x))
+
+    def gradient(self, x):
+        return self.term.gradient(x, self.ctx(x))
+
+    def hessian(self, x):
+        return self.term.hessian(x, self.ctx(x))
+
+
 @pytest.fixture(scope="module")
 def two_cubes(tmp_path_factory):
     """Two generated cubes, the upper one turned and lowered into the lower one's d̂
@@ -62,7 +85,8 @@ def test_plane_penalty_matches_finite_differences():
     rng = np.random.default_rng(1)
     x = rng.uniform(-1, 1, (6, 3))
     x[:, 1] = np.array([-0.02, 0.01, 0.03, 0.049, 0.2, 0.0])  # below, inside band, above
-    term = PenaltyPlaneContact(np.arange(6), [[0.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]], DHAT, 1e3)
+    planes = Planes(np.arange(6), [[0.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]], [0.0])
+    term = PenaltyPlaneContact(planes, DHAT, 1e3)
     gaps = np.maximum(0.0, DHAT - x[:, 1])
     assert term.value(x) == pytest.approx(0.5 * 1e3 * np.sum(gaps ** 2))
     np.testing.assert_allclose(term.gradient(x), _fd_gradient(term.value, x), atol=1e-6)
@@ -73,8 +97,9 @@ def test_plane_penalty_matches_finite_differences():
 
 def test_mesh_penalty_matches_finite_differences(two_cubes):
     model, x = two_cubes
-    term = PenaltyMeshContact(model, model.rest_positions, DHAT, 1e2)
-    pt, ee, _ = term.update(x)
+    term = _AtPositions(PenaltyMeshContact(DHAT, 1e2), model)
+    c = term.ctx(x).collisions
+    pt, ee = c.pt, c.ee
     assert len(pt) and len(ee)
     value = term.value(x)
     assert value > 0.0
@@ -88,7 +113,7 @@ def test_mesh_penalty_matches_finite_differences(two_cubes):
 
 def test_mesh_penalty_hessian_is_psd_and_pushes_through(two_cubes):
     model, x = two_cubes
-    term = PenaltyMeshContact(model, model.rest_positions, DHAT, 1e2)
+    term = _AtPositions(PenaltyMeshContact(DHAT, 1e2), model)
     H = _dense(term, x)
     assert np.linalg.eigvalsh(0.5 * (H + H.T)).min() > -1e-8 * np.abs(H).max()
     # unsigned distance: a vertex just below the face is pushed further down, not back
@@ -96,6 +121,5 @@ def test_mesh_penalty_hessian_is_psd_and_pushes_through(two_cubes):
     corner = top[np.argmin(x[top, 1])]
     y = x.copy()
     y[model.vertex_shape == 1, 1] -= 0.4 * DHAT + 0.1 * DHAT  # corner now 0.1 d̂ inside
-    term.update(y)
     assert term.gradient(y)[3 * corner + 1] > 0.0  # −∇P points down: deeper
-    assert term.max_step(x, (y - x).reshape(-1) * 10) == 1.0
+    assert term.term.max_step(x, (y - x).reshape(-1) * 10) == 1.0

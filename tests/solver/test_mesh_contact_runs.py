@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import pytest
 from generated import write_box_msh
+from iterates import watch_iterates
 
 from ipcsim.cli import main
 from ipcsim.contact.intersection import find_intersections
@@ -30,21 +31,17 @@ def test_two_cubes_stack_without_intersection(tmp_path, cube_mesh):
                                         f"{cube_mesh} 0 0.005 0  0 0 0  1 1 1",
                    "stiffness 1e7 0.4\n")
     sim = Simulation(build_model(load_scene(scene)))
-    mc = sim.mesh_contact
+    mc = sim.contact.mesh
     iterate_gaps = []
-    original = sim.newton.solve
 
-    def watched(potential, x, kinematic, target, tol, before, after):
-        def after_iteration(xi, info):
-            after(xi, info)  # adds the contact statistics of this iterate
-            iterate_gaps.append(info["min_distance"])
-            assert len(find_intersections(xi, mc.edges, mc.triangles)) == 0
-        return original(potential, x, kinematic, target, tol, before, after_iteration)
+    def seen(xi, evaluation):
+        iterate_gaps.append(evaluation.contacts.min_distance)
+        assert len(find_intersections(xi, mc.edges, mc.triangles)) == 0
 
-    sim.newton.solve = watched
+    watch_iterates(sim, seen)
     contact_steps = 0
     for _ in range(40):
-        row = sim.step()["step"]
+        row = sim.step().row
         assert row["converged"]
         contact_steps += row["contacts_point_triangle"] + row["contacts_edge_edge"] > 0
     assert contact_steps > 5  # the cubes did meet

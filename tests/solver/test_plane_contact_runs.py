@@ -4,6 +4,7 @@ backward-Euler trajectory, and resting contact on a ground plane and a tilted ha
 import numpy as np
 import pytest
 from generated import write_box_msh
+from iterates import watch_iterates
 
 from ipcsim.model.builder import build_model
 from ipcsim.scene import load_scene
@@ -34,7 +35,7 @@ def test_free_fall_matches_discrete_backward_euler(tmp_path, cube_mesh, h):
     n = 30
     for _ in range(n):
         report = sim.step()
-        assert report["result"].converged
+        assert report.result.converged
     # v_{k+1} = v_k + h g,  x_{k+1} = x_k + h v_{k+1}  =>  x_n = x_0 + h² g n(n+1)/2
     expected = x0 + h * h * np.array([0.0, -9.80665, 0.0]) * n * (n + 1) / 2
     # relative to the size of the trajectory (coordinates that are exactly 0 stay ~1e-15)
@@ -49,7 +50,7 @@ def test_free_fall_with_newmark_is_exact_for_constant_acceleration(tmp_path, cub
     x0 = sim.state.x.copy()
     n = 30
     for _ in range(n):
-        assert sim.step()["result"].converged
+        assert sim.step().result.converged
     t = n * H
     expected = x0 + 0.5 * np.array([0.0, -9.80665, 0.0]) * t * t
     np.testing.assert_allclose(sim.state.x, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
@@ -61,22 +62,17 @@ def _drop_and_rest(sim, signed_distance, normal, steps_to_rest=150, steps_at_res
     along the normal with its lowest vertex within d̂ and stays there. (Without friction a
     spin about the normal, or a slide along the plane, may persist.)"""
     iterate_min = [np.inf]
-    newton = sim.newton
-    original = newton.solve
 
-    def watched(potential, x, kinematic, target, tol, before, after):
-        def after_iteration(xi, info):
-            iterate_min[0] = min(iterate_min[0], signed_distance(xi).min())
-            after(xi, info)
-        return original(potential, x, kinematic, target, tol, before, after_iteration)
+    def seen(xi, evaluation):
+        iterate_min[0] = min(iterate_min[0], signed_distance(xi).min())
 
-    newton.solve = watched
+    watch_iterates(sim, seen)
     for _ in range(steps_to_rest):
         sim.step()
     gaps = []
     for _ in range(steps_at_rest):
         report = sim.step()
-        assert report["result"].converged
+        assert report.result.converged
         gaps.append(signed_distance(sim.state.x).min())
     assert iterate_min[0] > 0.0
     dhat = sim.model.dhat
@@ -112,5 +108,5 @@ def test_every_warm_start_reaches_the_same_step(tmp_path, cube_mesh, option):
     sims = [_simulation(tmp_path, cube_mesh, f"warmStart {o}\ntol 1\n1e-8\n") for o in (0, option)]
     for sim in sims:
         for _ in range(3):
-            assert sim.step()["result"].converged
+            assert sim.step().result.converged
     np.testing.assert_allclose(sims[1].state.x, sims[0].state.x, rtol=0, atol=1e-8)

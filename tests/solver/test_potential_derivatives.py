@@ -9,7 +9,7 @@ import pytest
 
 from ipcsim.model.builder import build_model
 from ipcsim.model.generate import box_tet_mesh, write_msh
-from ipcsim.potentials.base import Triplets
+from ipcsim.potentials.base import StepContext, Triplets
 from ipcsim.scene import load_scene
 from ipcsim.simulation import Simulation
 
@@ -27,10 +27,17 @@ def sim(request, tmp_path_factory):
     rng = np.random.default_rng(3)
     x = s.state.x + rng.uniform(-0.01, 0.01, s.state.x.shape)
     x[:, 1] = np.maximum(x[:, 1], 2e-4)  # some vertices within d-hat of the ground
-    s.inertia.x_tilde = s.state.x + 0.003
-    s.body_force.acceleration[:] = [0.0, -9.8, 1.0]
-    s.damping.start_step(s.state.x, s.elasticity.hessian(s.state.x))
-    return s, x
+    x_n = s.state.x
+    damping = s.potential.term("damping").lag(x_n, s.potential.term("elasticity").hessian(x_n))
+    ctx = StepContext(x_start=x_n, x_tilde=x_n + 0.003,
+                      acceleration=np.tile([0.0, -9.8, 1.0], (len(x), 1)),
+                      kinematic=np.zeros(len(x), bool), target=x_n, dhat=s.model.dhat,
+                      damping=damping)
+    return s, x, ctx
+
+
+def _term(s, name):
+    return s.potential.term("plane contact" if name == "contact" else name.replace("_", " "))
 
 
 def _fd_gradient(f, x, eps):
@@ -60,10 +67,10 @@ TERMS = ["inertia", "body_force", "elasticity", "contact", "damping"]
 
 @pytest.mark.parametrize("name", TERMS)
 def test_term_gradient_matches_finite_differences(sim, name):
-    s, x = sim
-    term = s.contacts[0] if name == "contact" else getattr(s, name)
-    g = term.gradient(x)
-    fd = _fd_gradient(term.value, x, 1e-7)
+    s, x, ctx = sim
+    term = _term(s, name)
+    g = term.gradient(x, ctx)
+    fd = _fd_gradient(lambda y: term.value(y, ctx), x, 1e-7)
     assert np.abs(g).max() > 0
     np.testing.assert_allclose(g, fd, rtol=1e-5, atol=1e-6 * np.abs(fd).max())
 
@@ -72,19 +79,21 @@ def test_term_gradient_matches_finite_differences(sim, name):
 def test_exactly_convex_terms_have_the_finite_difference_hessian(sim, name):
     """These terms' Hessians are PSD already (contact: rank-one with a positive
     coefficient near the plane), so the projected Hessian equals the true one."""
-    s, x = sim
-    term = s.contacts[0] if name == "contact" else getattr(s, name)
-    H = term.hessian(x).tocsr(x.size).toarray()
-    fd = _fd_hessian(term.gradient, x, 1e-7)
+    s, x, ctx = sim
+    term = _term(s, name)
+    H = term.hessian(x, ctx).tocsr(x.size).toarray()
+    fd = _fd_hessian(lambda y: term.gradient(y, ctx), x, 1e-7)
     np.testing.assert_allclose(H, fd, rtol=1e-4, atol=1e-6 * np.abs(fd).max())
 
 
 def test_incremental_potential_gradient_and_psd_hessian(sim):
-    s, x = sim
-    g = s.potential.gradient(x)
-    fd = _fd_gradient(s.potential.value, x, 1e-7)
+    s, x, ctx = sim
+    kappa = s.state.kappa
+    values = s.potential.evaluate(x, ctx, 2)
+    g = values.gradient(kappa)
+    fd = _fd_gradient(lambda y: s.potential.value(y, ctx, kappa), x, 1e-7)
     np.testing.assert_allclose(g, fd, rtol=1e-5, atol=1e-6 * np.abs(fd).max())
-    static, dynamic = s.potential.hessian(x)
+    static, dynamic = values.hessian(kappa)
     H = Triplets.concat(static + dynamic).tocsr(x.size).toarray()
     assert np.allclose(H, H.T)
     assert np.linalg.eigvalsh(H).min() > 0  # PSD local blocks + mass: positive definite

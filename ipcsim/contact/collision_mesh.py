@@ -1,0 +1,85 @@
+"""The collision mesh: which primitives can touch, and which pairs of them count.
+
+Built once from the model: every surface vertex, edge and triangle (tet boundaries, .obj
+surfaces, .seg segments, .pt points, meshCO obstacles), a body id per vertex that filters
+pairs, and the mask of vertices that are kinematic for the whole run (pairs whose
+primitives are all kinematic never collide). With self collision off only pairs between a
+body and a ``meshCO`` obstacle remain, as in the original.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+def _index_array(a, cols: int, name: str) -> np.ndarray:
+    a = np.ascontiguousarray(a, dtype=np.int64)
+    if a.size == 0:
+        return a.reshape(0, cols)
+    if a.ndim != 2 or a.shape[1] != cols:
+        raise ValueError(f"{name} must be an (m, {cols}) integer array")
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class CollisionMesh:
+    """Surface primitives in global vertex numbers.
+
+    vertices (v,) points that can collide; edges (e, 2); triangles (t, 3); body (n,) the
+    body id of each vertex (a primitive's body is its first vertex's; pairs within one
+    body are skipped unless ``self_collision``); kinematic (n,) bool; rest (n, 3) rest
+    positions (the edge–edge mollifier's ε_x) or None when unused."""
+
+    vertices: np.ndarray
+    edges: np.ndarray
+    triangles: np.ndarray
+    body: np.ndarray
+    kinematic: np.ndarray
+    self_collision: bool = True
+    rest: np.ndarray | None = None
+
+    def __post_init__(self):
+        # writable C-contiguous copies: numba compiles a second version of every kernel
+        # for read-only arrays (the model's are read-only)
+        verts = np.array(np.asarray(self.vertices).reshape(-1), dtype=np.int64)
+        object.__setattr__(self, "vertices", verts)
+        object.__setattr__(self, "edges", np.array(_index_array(self.edges, 2, "edges")))
+        object.__setattr__(self, "triangles",
+                           np.array(_index_array(self.triangles, 3, "triangles")))
+        object.__setattr__(self, "body", np.array(self.body, dtype=np.int64))
+        object.__setattr__(self, "kinematic", np.array(self.kinematic, dtype=np.bool_))
+        if self.rest is not None:
+            object.__setattr__(self, "rest", np.array(self.rest, dtype=np.float64))
+        n = len(self.body)
+        if self.kinematic.shape != (n,):
+            raise ValueError("body and kinematic need one entry per vertex")
+        for prims in (self.vertices, self.edges, self.triangles):
+            if prims.size and (prims.min() < 0 or prims.max() >= n):
+                raise ValueError("vertex index out of range")
+
+    @staticmethod
+    def of(n_vertices: int, vertices, edges, triangles, body=None, kinematic=None,
+           self_collision: bool = True, rest=None) -> "CollisionMesh":
+        """A mesh over n vertices; body defaults to one body, kinematic to none."""
+        return CollisionMesh(
+            vertices, edges, triangles,
+            np.zeros(n_vertices, np.int64) if body is None else body,
+            np.zeros(n_vertices, np.bool_) if kinematic is None else kinematic,
+            self_collision, rest)
+
+    @staticmethod
+    def from_model(model) -> "CollisionMesh":
+        body = np.asarray(model.vertex_shape, dtype=np.int64)
+        if not model.self_collision:
+            # only body–obstacle pairs: every non-obstacle shape counts as one body
+            obstacle = np.array([k == "obstacle" for k in model.shape_kinds])
+            body = np.where(obstacle[body], body + 1, 0)
+        return CollisionMesh(model.surface_vertices, model.surface_edges,
+                             model.surface_triangles, body, model.always_kinematic,
+                             bool(model.self_collision), model.rest_positions)
+
+    @property
+    def n_vertices(self) -> int:
+        return len(self.body)

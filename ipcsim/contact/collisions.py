@@ -1,0 +1,98 @@
+"""The collision set: mesh pairs close enough to matter, as one value.
+
+``build_collisions(mesh, x, d̂)`` gives the point–triangle and edge–edge candidates at x
+(boxes grown by d̂, so every pair closer than d̂ is among them), the edge–edge mollifier
+thresholds ε_x (from rest positions) and each pair's closest-feature type and squared
+distance at x. ``swept_collisions`` gives the candidates over a motion x -> x1 (every pair
+that comes within d̂ anywhere on it), which is what a line search's energies need.
+
+The barrier sums over every candidate without merging duplicates, which equals the IPC
+Toolkit's merged, weighted set: pairs farther than d̂ contribute nothing.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..kernels.broad_phase import swept_pairs_within
+from ..kernels.contact_barrier import classify_and_distance
+from ..kernels.mollifier import edge_edge_mollifier_thresholds
+from .candidates import find_candidates
+from .collision_mesh import CollisionMesh
+
+
+@dataclass(frozen=True, eq=False)
+class PairDistances:
+    """Closest-feature type (ipctk's enum codes) and squared distance of every pair."""
+
+    pt_type: np.ndarray  # (k,) int64
+    pt_d2: np.ndarray  # (k,)
+    ee_type: np.ndarray  # (j,) int64
+    ee_d2: np.ndarray  # (j,)
+
+
+@dataclass(frozen=True)
+class MeshContactCount:
+    point_triangle: int  # active pairs: d² < d̂²
+    edge_edge: int
+    min_distance: float  # smallest distance over the candidates (inf without any)
+
+
+@dataclass(frozen=True, eq=False)
+class Collisions:
+    """Candidate pairs (rows of global vertex numbers): pt (k, 4) = (p, t0, t1, t2),
+    ee (j, 4) = (ea0, ea1, eb0, eb1), with ee_eps_x (j,) their mollifier thresholds, and
+    the distances at the positions they were found at (None for a swept set)."""
+
+    pt: np.ndarray
+    ee: np.ndarray
+    ee_eps_x: np.ndarray
+    distances: PairDistances | None = None
+
+    @staticmethod
+    def empty() -> "Collisions":
+        z = np.zeros((0, 4), dtype=np.int64)
+        return Collisions(z, z, np.zeros(0))
+
+    def __len__(self) -> int:
+        return len(self.pt) + len(self.ee)
+
+    def count(self, dhat: float) -> MeshContactCount:
+        """Active pairs and the smallest distance (needs the distances)."""
+        d = self.distances
+        s_hat = dhat * dhat
+        dmin = np.sqrt(min(d.pt_d2.min(initial=np.inf), d.ee_d2.min(initial=np.inf)))
+        return MeshContactCount(int(np.count_nonzero(d.pt_d2 < s_hat)),
+                                int(np.count_nonzero(d.ee_d2 < s_hat)), float(dmin))
+
+    def within_motion(self, x0, x1, dhat: float) -> "Collisions":
+        """The pairs that come within d̂ (box test) somewhere on x0 -> x1: a cheap filter
+        of a set found over a longer motion."""
+        keep_pt = swept_pairs_within(x0, x1, self.pt, 1, dhat)
+        keep_ee = swept_pairs_within(x0, x1, self.ee, 2, dhat)
+        return Collisions(self.pt[keep_pt], self.ee[keep_ee], self.ee_eps_x[keep_ee])
+
+
+def _mollifier_thresholds(mesh: CollisionMesh, ee) -> np.ndarray:
+    return edge_edge_mollifier_thresholds(mesh.rest, ee) if len(ee) else np.zeros(0)
+
+
+def build_collisions(mesh: CollisionMesh, x: np.ndarray, dhat: float) -> Collisions:
+    """Every pair of ``mesh`` that may be closer than d̂ at x, with its distance at x."""
+    pt, ee = find_candidates(mesh, x, dhat)
+    distances = PairDistances(*classify_and_distance(x, pt, ee))
+    return Collisions(pt, ee, _mollifier_thresholds(mesh, ee), distances)
+
+
+def swept_collisions(mesh: CollisionMesh, x0: np.ndarray, x1: np.ndarray,
+                     dhat: float) -> Collisions:
+    """Every pair that may come within d̂ while the vertices move linearly x0 -> x1."""
+    pt, ee = find_candidates(mesh, x0, dhat, x1=x1)
+    return Collisions(pt, ee, _mollifier_thresholds(mesh, ee))
+
+
+def pair_distances(x: np.ndarray, collisions: Collisions) -> PairDistances:
+    """Types and squared distances of a set's pairs at x."""
+    return PairDistances(*classify_and_distance(x, collisions.pt, collisions.ee))

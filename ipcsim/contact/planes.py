@@ -1,0 +1,41 @@
+"""Analytic contact planes (``ground``, ``halfSpace``) and the vertices they push.
+
+A plane (o, n) has a unit normal n; its solid side is opposite n, and the signed
+distance of a vertex x is d = n·(x − o). Every collision vertex that is not kinematic for
+the whole run takes part (codim, velocity and meshSeq shapes and obstacles move as
+prescribed; planes never push them).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..kernels.plane_contact import plane_active_count_and_min_distance
+
+
+@dataclass(frozen=True, eq=False)
+class Planes:
+    vertices: np.ndarray  # (v,) int64, the vertices tested against every plane
+    origins: np.ndarray  # (p, 3)
+    normals: np.ndarray  # (p, 3) unit
+    friction: np.ndarray  # (p,) μ of each plane
+
+    def __post_init__(self):
+        # writable copies: numba compiles a second version of every kernel for the
+        # model's read-only arrays
+        object.__setattr__(self, "vertices", np.array(self.vertices, dtype=np.int64))
+        object.__setattr__(self, "origins", np.array(self.origins, dtype=float).reshape(-1, 3))
+        object.__setattr__(self, "normals", np.array(self.normals, dtype=float).reshape(-1, 3))
+        object.__setattr__(self, "friction", np.array(self.friction, dtype=float).reshape(-1))
+
+    @staticmethod
+    def from_model(model) -> "Planes":
+        return Planes(model.plane_contact_vertices, model.plane_origins, model.plane_normals,
+                      model.plane_friction)
+
+    def count(self, x: np.ndarray, dhat: float) -> tuple[int, float]:
+        """(pairs with d² < d̂², the smallest signed distance) at x."""
+        return plane_active_count_and_min_distance(x, self.vertices, self.origins,
+                                                   self.normals, dhat * dhat)

@@ -1,0 +1,68 @@
+"""What contact a scene has, resolved once from the model, and how contacts are counted.
+
+``ContactSetup`` names the collision mesh (None without mesh contact), the planes (None
+without), d̂, friction's mesh μ and the formulation: IPC's barrier with CCD-bounded steps
+and adaptive κ, or the penalty baseline (no CCD, no κ).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .collision_mesh import CollisionMesh
+from .collisions import Collisions
+from .planes import Planes
+
+
+@dataclass(frozen=True)
+class ContactCount:
+    """Active contacts (d² < d̂²) by kind and the smallest distance (signed for planes;
+    inf when there is nothing to measure)."""
+
+    plane: int = 0
+    point_triangle: int = 0
+    edge_edge: int = 0
+    min_distance: float = np.inf
+
+    @property
+    def total(self) -> int:
+        return self.plane + self.point_triangle + self.edge_edge
+
+    def as_row(self) -> dict:
+        """The contact columns of steps.csv and newton.csv."""
+        return {"contacts_plane": self.plane, "contacts_point_triangle": self.point_triangle,
+                "contacts_edge_edge": self.edge_edge, "min_distance": self.min_distance,
+                "contacts_total": self.total}
+
+
+@dataclass(frozen=True, eq=False)
+class ContactSetup:
+    mesh: CollisionMesh | None
+    planes: Planes | None
+    dhat: float
+    self_friction: float = 0.0  # μ of mesh–mesh contacts
+    ccd: bool = True  # steps bounded by CCD (barrier); False for the penalty baseline
+    adaptive_kappa: bool = True  # κ balanced and doubled; False: fixed κ, or no barrier
+
+    @staticmethod
+    def from_model(model) -> "ContactSetup":
+        barrier = model.contact_formulation == "barrier"
+        return ContactSetup(
+            mesh=CollisionMesh.from_model(model) if model.needs_mesh_contact else None,
+            planes=Planes.from_model(model) if model.needs_plane_contact else None,
+            dhat=model.dhat, self_friction=model.self_friction, ccd=barrier,
+            adaptive_kappa=barrier and model.kappa is None)
+
+    def count(self, x: np.ndarray, collisions: Collisions | None) -> ContactCount:
+        """Contacts at x, with ``collisions`` the mesh's collision set at x."""
+        plane, dmin = 0, np.inf
+        if self.planes is not None:
+            plane, dmin = self.planes.count(x, self.dhat)
+        pt = ee = 0
+        if collisions is not None:
+            mesh = collisions.count(self.dhat)
+            pt, ee = mesh.point_triangle, mesh.edge_edge
+            dmin = min(dmin, mesh.min_distance)
+        return ContactCount(int(plane), pt, ee, float(dmin))

@@ -1,0 +1,116 @@
+"""The incremental potential of a time step, as an ordered, weighted sum of terms:
+
+    E(x) = ½‖x − x̃‖²_M + w·(Ψ(x) − Σ mᵢ aᵢ·xᵢ) + ½ Δxᵀ D Δx + κ Σ b(d², d̂²) + D_f(x)
+
+with w = h² for backward Euler and β h² for Newmark. Barrier terms are evaluated at unit
+stiffness and scaled by κ here, so that κ can be balanced and doubled without evaluating
+anything again. ``evaluate`` returns every term's value (and gradient and Hessian) at one
+x as a ``TermValues``; the sums at a given κ are taken from it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .base import Potential, StepContext, Triplets
+
+
+@dataclass(frozen=True, eq=False)
+class WeightedTerm:
+    term: Potential
+    weight: float = 1.0  # fixed weight (h² or βh² for forces and elasticity)
+    barrier: bool = False  # also scaled by κ
+
+    def factor(self, kappa: float) -> float:
+        return self.weight * kappa if self.barrier else self.weight
+
+
+@dataclass(frozen=True, eq=False)
+class TermValues:
+    """Each term's value, and with order ≥ 1 its gradient, with order 2 its Hessian, at
+    one x (unweighted; the weights and κ are applied by the sums)."""
+
+    terms: tuple[WeightedTerm, ...]
+    values: tuple[float, ...]
+    gradients: tuple[np.ndarray, ...] | None = None
+    hessians: tuple[Triplets, ...] | None = None
+
+    def energy(self, kappa: float) -> float:
+        return float(sum(t.factor(kappa) * v for t, v in zip(self.terms, self.values)))
+
+    def value_of(self, name: str) -> float | None:
+        """The unweighted value of the term called ``name`` (None if absent)."""
+        for t, v in zip(self.terms, self.values):
+            if t.term.name == name:
+                return v
+        return None
+
+    def gradient(self, kappa: float) -> np.ndarray:
+        g = np.zeros_like(self.gradients[0])
+        for t, gi in zip(self.terms, self.gradients):
+            g += t.factor(kappa) * gi
+        return g
+
+    def split_gradient(self) -> tuple[np.ndarray, np.ndarray]:
+        """(Σ barrier gradients at κ = 1, Σ of every other term's): what κ balances."""
+        g_barrier, g_rest = np.zeros_like(self.gradients[0]), np.zeros_like(self.gradients[0])
+        for t, gi in zip(self.terms, self.gradients):
+            if t.barrier:
+                g_barrier += t.weight * gi
+            else:
+                g_rest += t.weight * gi
+        return g_barrier, g_rest
+
+    def hessian(self, kappa: float) -> tuple[list[Triplets], list[Triplets]]:
+        """Weighted PSD triplets split into terms whose sparsity pattern never changes
+        (``constant_pattern``) and the rest (contact, friction)."""
+        static, dynamic = [], []
+        for t, h in zip(self.terms, self.hessians):
+            (static if t.term.constant_pattern else dynamic).append(h.scaled(t.factor(kappa)))
+        return static, dynamic
+
+
+@dataclass(frozen=True, eq=False)
+class IncrementalPotential:
+    terms: tuple[WeightedTerm, ...]
+
+    def term(self, name: str) -> Potential | None:
+        """The term called ``name`` ("elasticity", "friction", ...), None if absent."""
+        return next((t.term for t in self.terms if t.term.name == name), None)
+
+    def evaluate(self, x: np.ndarray, ctx: StepContext, order: int = 0) -> TermValues:
+        values = tuple(float(t.term.value(x, ctx)) for t in self.terms)
+        gradients = tuple(t.term.gradient(x, ctx) for t in self.terms) if order >= 1 else None
+        hessians = tuple(t.term.hessian(x, ctx) for t in self.terms) if order >= 2 else None
+        return TermValues(self.terms, values, gradients, hessians)
+
+    def value(self, x: np.ndarray, ctx: StepContext, kappa: float) -> float:
+        return float(sum(t.factor(kappa) * t.term.value(x, ctx) for t in self.terms))
+
+    def max_step(self, x: np.ndarray, p: np.ndarray, ctx: StepContext) -> float:
+        """Largest feasible step fraction of the terms that bound one (the inversion bound
+        of neo-Hookean elasticity, the planes' CCD)."""
+        alpha = 1.0
+        for t in self.terms:
+            bound = getattr(t.term, "max_step", None)
+            if bound is not None:
+                alpha = min(alpha, bound(x, p, ctx))
+        return alpha
+
+    def nonfinite_terms(self, x: np.ndarray, ctx: StepContext, p=None) -> list[str]:
+        """Names of the terms whose value, gradient or Hessian at ``x`` (or, with ``p``,
+        whose step bound along p) is NaN or infinite: what a failure report names."""
+        bad = []
+        for t in self.terms:
+            term = t.term
+            with np.errstate(all="ignore"):
+                finite = (np.isfinite(term.value(x, ctx))
+                          and np.isfinite(term.gradient(x, ctx)).all()
+                          and np.isfinite(term.hessian(x, ctx).vals).all())
+            if finite and p is not None and getattr(term, "max_step", None) is not None:
+                finite = not np.isnan(term.max_step(x, p, ctx))
+            if not finite:
+                bad.append(term.name)
+        return bad

@@ -1,0 +1,157 @@
+"""One time step's incremental potential as Newton sees it: ``evaluate(x, order)`` and
+``max_step(x, p)``.
+
+The objective owns the step's refreshes, so that Newton knows nothing of contact:
+
+* ``evaluate(x, 2)`` at a Newton iterate finds the collision set at x, counts the contacts,
+  adapts κ (balanced at the step's first iterate with a contact, doubled while the closest
+  contact keeps closing in below dTol) and returns E, ∇E and the PSD Hessian at x;
+* ``max_step(x, p)`` bounds the step (the terms' own bounds, mesh CCD) and returns a
+  ``LineSearch`` whose energies use every pair that comes within d̂ along [x, x + αp];
+* ``lag_friction(x)`` freezes friction's normal forces and bases at x.
+
+Its state is explicit: the step's ``StepContext`` (replaced, never written to), the
+``BarrierStiffness`` and the α of the last CCD sweep (``contact.ccd.line_search_bound``
+starts from it). The collision set of the last evaluated x is kept for a repeat call at
+equal positions (compared by value).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..contact.ccd import line_search_bound, unbounded_step
+from ..contact.collisions import Collisions, build_collisions
+from ..contact.friction_lag import FrictionLag, lag_friction
+from ..contact.setup import ContactCount, ContactSetup
+from ..contact.stiffness import BarrierStiffness
+from .base import StepContext, Triplets
+from .incremental import IncrementalPotential, TermValues
+
+
+@dataclass(frozen=True, eq=False)
+class Evaluation:
+    """The incremental potential at one x: energy, gradient (order ≥ 1) and Hessian
+    triplets split by pattern (order 2) at the κ in force, and the contacts at x."""
+
+    x: np.ndarray
+    values: TermValues
+    kappa: float
+    contacts: ContactCount
+    energy: float
+    gradient: np.ndarray | None = None
+    hessian: tuple[list[Triplets], list[Triplets]] | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class LineSearch:
+    """The feasible part of a Newton direction: α ≤ ``max_alpha`` keeps x + αp free of
+    intersections and inversions; ``energy(α)`` uses the pairs met along it."""
+
+    objective: "StepObjective"
+    x: np.ndarray
+    p3: np.ndarray  # (n, 3)
+    max_alpha: float
+    ctx: StepContext
+
+    def energy(self, alpha: float) -> float:
+        return self.energy_at(self.x + alpha * self.p3)
+
+    def energy_at(self, y: np.ndarray) -> float:
+        """E at a point of the segment (e.g. one whose kinematic rows were snapped onto
+        their targets)."""
+        obj = self.objective
+        with obj.timer("energy"):
+            return obj.potential.value(y, self.ctx, obj.stiffness.kappa)
+
+
+class StepObjective:
+    def __init__(self, potential: IncrementalPotential, ctx: StepContext,
+                 contact: ContactSetup, stiffness: BarrierStiffness, timer):
+        self.potential = potential
+        self.ctx = ctx
+        self.contact = contact
+        self.stiffness = stiffness
+        self.timer = timer
+        self.last_ccd_alpha = 1.0  # CCD's α at this step's previous line search
+        self._collisions_at: tuple[np.ndarray, Collisions] | None = None
+
+    # -- what Newton reads -----------------------------------------------------------------
+    @property
+    def kinematic(self) -> np.ndarray:
+        return self.ctx.kinematic
+
+    @property
+    def target(self) -> np.ndarray:
+        return self.ctx.target
+
+    def evaluate(self, x: np.ndarray, order: int = 2, adapt: bool = True) -> Evaluation:
+        """E (order 0), ∇E (1) and the Hessian (2) at x with the collision set at x. At
+        order 2 κ adapts first (unless ``adapt`` is False, as for a warm start)."""
+        with self.timer("contact_set"):
+            collisions = self.collisions(x)
+            contacts = self.contact.count(x, collisions)
+        self.ctx = dataclasses.replace(self.ctx, collisions=collisions)
+        with self.timer("energy"):
+            values = self.potential.evaluate(x, self.ctx, order)
+        if order == 2 and adapt:
+            self._adapt_stiffness(values, contacts)
+        kappa = self.stiffness.kappa
+        return Evaluation(x, values, kappa, contacts, values.energy(kappa),
+                          values.gradient(kappa) if order >= 1 else None,
+                          values.hessian(kappa) if order >= 2 else None)
+
+    def _adapt_stiffness(self, values: TermValues, contacts: ContactCount) -> None:
+        if not self.contact.adaptive_kappa:
+            return
+        g_barrier = g_rest = None
+        if self.stiffness.needs_balance(contacts.total):
+            free = np.repeat(~self.ctx.kinematic, 3)
+            g_barrier, g_rest = (g[free] for g in values.split_gradient())
+        self.stiffness = self.stiffness.at_iterate(contacts.total, contacts.min_distance,
+                                                   g_barrier, g_rest)
+
+    def max_step(self, x: np.ndarray, p: np.ndarray) -> LineSearch:
+        """The feasible fraction of the direction p (3n,) from x."""
+        p3 = p.reshape(-1, 3)
+        with self.timer("ccd_line_search"):
+            alpha = min(1.0, self.potential.max_step(x, p, self.ctx))
+            ctx = self.ctx
+            mesh = self.contact.mesh
+            if mesh is not None:
+                if self.contact.ccd:
+                    bound = line_search_bound(mesh, x, p3, self.contact.dhat,
+                                              self.last_ccd_alpha)
+                else:
+                    bound = unbounded_step(mesh, x, p3, self.contact.dhat)
+                self.last_ccd_alpha = bound.alpha
+                alpha = min(alpha, bound.alpha)
+                ctx = dataclasses.replace(ctx, collisions=bound.collisions)
+        return LineSearch(self, x, p3, alpha, ctx)
+
+    def nonfinite_terms(self, x: np.ndarray, p: np.ndarray | None = None) -> list[str]:
+        return self.potential.nonfinite_terms(x, self.ctx, p)
+
+    # -- refreshes ---------------------------------------------------------------------------
+    def collisions(self, x: np.ndarray) -> Collisions | None:
+        """The collision set at x (kept for the next call at equal positions)."""
+        if self.contact.mesh is None:
+            return None
+        kept = self._collisions_at
+        if kept is not None and np.array_equal(kept[0], x):
+            return kept[1]
+        collisions = build_collisions(self.contact.mesh, x, self.contact.dhat)
+        self._collisions_at = (x.copy(), collisions)
+        return collisions
+
+    def lag_friction(self, x_lag: np.ndarray) -> FrictionLag:
+        """Friction lagged at x_lag with the κ in force; displacements from xₙ."""
+        with self.timer("contact_set"):
+            collisions = self.collisions(x_lag)
+        lag = lag_friction(x_lag, self.ctx.x_start, collisions, self.contact.planes,
+                           self.contact.self_friction, self.stiffness.kappa, self.contact.dhat)
+        self.ctx = dataclasses.replace(self.ctx, friction=lag)
+        return lag
