@@ -151,7 +151,24 @@ class ScipySolver:
         return _check(lu.solve(np.asarray(b, dtype=np.float64)))
 
 
-class CholmodSolver:
+class _Factorising:
+    """A direct solver in four phases, separate so that the benchmark can time each one:
+    ``_load`` takes A's values (and its pattern when new; True then), ``_analyse`` the
+    symbolic analysis (ordering, elimination tree), ``_factorise`` the numeric factor,
+    ``_backsolve`` the triangular solves. The analysis is kept while the pattern is."""
+
+    _analysed = False
+
+    def solve(self, A, b: np.ndarray) -> np.ndarray:
+        if A.shape[0] == 0:
+            return np.zeros(0)
+        if self._load(A) or not self._analysed:
+            self._analyse()
+        self._factorise()
+        return self._backsolve(b)
+
+
+class CholmodSolver(_Factorising):
     """CHOLMOD (kvxopt) Cholesky with the symbolic analysis kept per sparsity pattern.
 
     ``ordering``: "metis" (pymetis on the vertex graph), "amd" (CHOLMOD's own), or "auto"
@@ -182,7 +199,6 @@ class CholmodSolver:
         self._factor = None  # symbolic factor of the current pattern (numeric after _factorise)
         self._analysed = False
 
-    # The phases are separate so that the benchmark can time each one.
     def _load(self, A) -> bool:
         """Take A's values (and its pattern when new); True when the pattern is new."""
         from kvxopt import matrix, spmatrix
@@ -228,14 +244,6 @@ class CholmodSolver:
         except ArithmeticError as exc:  # a supernodal factor that stopped at a non-positive pivot
             raise SolverError(f"Cholesky factorisation failed (matrix not positive definite): {exc}") from None
         return _check(np.array(x).reshape(-1))
-
-    def solve(self, A, b: np.ndarray) -> np.ndarray:
-        if A.shape[0] == 0:
-            return np.zeros(0)
-        if self._load(A) or not self._analysed:
-            self._analyse()
-        self._factorise()
-        return self._backsolve(b)
 
 
 # --------------------------------------------------------------------------- MKL PARDISO
@@ -290,7 +298,7 @@ _PARDISO_ERRORS = {
 }
 
 
-class PardisoSolver:
+class PardisoSolver(_Factorising):
     """MKL PARDISO for real symmetric positive definite matrices (mtype 2), zero-based upper
     CSR, ordering ``iparm[1]``: 2 = METIS (default), 0 = minimum degree, 3 = parallel METIS.
     Phases: 11 analysis (kept per pattern), 22 numeric factorisation, 33 solve."""
@@ -346,7 +354,6 @@ class PardisoSolver:
         except Exception:
             pass
 
-    # The phases are separate so that the benchmark can time each one.
     def _load(self, A) -> bool:
         indptr, indices, data = _symmetric_csc_arrays(A)
         n = len(indptr) - 1
@@ -380,14 +387,6 @@ class PardisoSolver:
         x = np.zeros_like(b)
         self._call(33, b, x)
         return _check(x)
-
-    def solve(self, A, b: np.ndarray) -> np.ndarray:
-        if A.shape[0] == 0:
-            return np.zeros(0)
-        if self._load(A) or not self._analysed:
-            self._analyse()
-        self._factorise()
-        return self._backsolve(b)
 
 
 # --------------------------------------------------------------------------- selection

@@ -1,0 +1,148 @@
+"""The house's rules, checked by reading the code (imports and definitions, not running it):
+
+* only ``ipcsim/kernels/`` imports numba, and kernels import nothing of ipcsim outside it;
+* the solver imports nothing of contact; the scene parser imports no numerics and nothing
+  of the rest of ipcsim but ``errors``; ``scene/`` and ``io/`` do not lean on each other;
+* the terms of the incremental potential are frozen dataclasses;
+* Newton takes an objective, a start and a tolerance; no function takes more than eight
+  parameters (numba kernels aside) or runs longer than about 80 lines.
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import importlib
+import inspect
+import pkgutil
+from pathlib import Path
+
+import pytest
+
+import ipcsim
+import ipcsim.potentials
+
+PACKAGE = Path(ipcsim.__file__).parent
+MAX_PARAMETERS = 8
+MAX_LINES = 85  # "about 80"
+
+
+def _modules():
+    for path in sorted(PACKAGE.rglob("*.py")):
+        yield path.relative_to(PACKAGE.parent), ast.parse(path.read_text(encoding="utf-8"))
+
+
+def _imports(path: Path, tree: ast.Module) -> set[str]:
+    """Absolute names of every module ``path`` imports (relative imports resolved)."""
+    package = list(path.with_suffix("").parts[:-1])
+    found = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = package[:len(package) - node.level + 1] if node.level else []
+            module = ".".join(base + ([node.module] if node.module else []))
+            found.add(module)
+            found.update(f"{module}.{a.name}" for a in node.names)
+    return found
+
+
+def _area(path: Path) -> str:
+    """``kernels``, ``solver``, ... for ipcsim/kernels/x.py; the module name at the top."""
+    parts = path.with_suffix("").parts
+    return parts[1] if len(parts) > 2 else parts[-1]
+
+
+IMPORTS = {path: _imports(path, tree) for path, tree in _modules()}
+
+
+def _offenders(rule) -> list[str]:
+    return sorted(f"{path}: {name}" for path, names in IMPORTS.items()
+                  for name in names if rule(path, name))
+
+
+def _within(name: str, area: str) -> bool:
+    return name == f"ipcsim.{area}" or name.startswith(f"ipcsim.{area}.")
+
+
+def test_only_kernels_import_numba():
+    assert _offenders(lambda p, n: n.split(".")[0] == "numba" and _area(p) != "kernels") == []
+
+
+def test_kernels_import_nothing_of_ipcsim_outside_kernels():
+    assert _offenders(lambda p, n: _area(p) == "kernels" and n.startswith("ipcsim")
+                      and not _within(n, "kernels")) == []
+
+
+def test_the_solver_imports_nothing_of_contact():
+    assert _offenders(lambda p, n: _area(p) == "solver" and _within(n, "contact")) == []
+
+
+def test_the_scene_parser_imports_no_numerics():
+    numerics = ("numpy", "scipy", "numba", "meshio")
+
+    def bad(p, n):
+        if _area(p) != "scene":
+            return False
+        if n.split(".")[0] in numerics:
+            return True
+        return n.startswith("ipcsim") and not (_within(n, "scene") or _within(n, "errors"))
+
+    assert _offenders(bad) == []
+
+
+@pytest.mark.parametrize("a, b", [("scene", "io"), ("io", "scene")])
+def test_scene_and_io_do_not_import_each_other(a, b):
+    assert _offenders(lambda p, n: _area(p) == a and _within(n, b)) == []
+
+
+def _term_classes():
+    for info in pkgutil.iter_modules(ipcsim.potentials.__path__):
+        module = importlib.import_module(f"ipcsim.potentials.{info.name}")
+        for _, cls in inspect.getmembers(module, inspect.isclass):
+            if cls.__module__ == module.__name__ and not getattr(cls, "_is_protocol", False) \
+                    and all(
+                    callable(getattr(cls, m, None)) for m in ("value", "gradient", "hessian")):
+                yield cls
+
+
+def test_terms_are_frozen_dataclasses():
+    terms = list(_term_classes())
+    assert len(terms) >= 8  # inertia, body force, elasticity, damping, contact, friction, ...
+    for cls in terms:
+        assert dataclasses.is_dataclass(cls) and cls.__dataclass_params__.frozen, cls
+
+
+def test_newton_takes_an_objective_a_start_and_a_tolerance():
+    from ipcsim.solver.newton import NewtonSolver
+
+    assert list(inspect.signature(NewtonSolver.solve).parameters) == [
+        "self", "objective", "x0", "tol"]
+
+
+def _functions():
+    for path, tree in _modules():
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                yield path, node
+
+
+def _is_kernel(node) -> bool:
+    return any("jit" in ast.unparse(d) for d in node.decorator_list)
+
+
+def _parameters(node) -> int:
+    a = node.args
+    names = [x.arg for x in a.posonlyargs + a.args + a.kwonlyargs]
+    count = len(names) + (a.vararg is not None) + (a.kwarg is not None)
+    return count - (names[:1] in (["self"], ["cls"]))
+
+
+def test_no_function_takes_more_than_eight_parameters():
+    assert [f"{p}:{n.lineno} {n.name}" for p, n in _functions()
+            if not _is_kernel(n) and _parameters(n) > MAX_PARAMETERS] == []
+
+
+def test_no_function_is_longer_than_about_80_lines():
+    assert [f"{p}:{n.lineno} {n.name} ({n.end_lineno - n.lineno + 1} lines)"
+            for p, n in _functions() if n.end_lineno - n.lineno + 1 > MAX_LINES] == []
