@@ -139,14 +139,9 @@ class Simulation:
         return objective
 
     def tolerance(self, step: int) -> float:
-        tol = self.model.newton_tol(step)
-        friction = self.potential.term("friction")
-        if friction is not None:
-            # Newton must resolve the static-friction ramp |u| < ε_v·h: its stiffness μλ/ε
-            # makes every step from rest tiny, so a tolerance above the ramp stops a body
-            # that should start sliding (it then creeps at ε_v instead)
-            tol = min(tol, self.model.solver.friction_tol_fraction * friction.eps)
-        return tol
+        """Newton's ‖p‖∞ tolerance of step ``step`` (tol·l·h); friction's static ramp has
+        a test of its own (``Friction.resolved``)."""
+        return self.model.newton_tol(step)
 
     def minimise(self, objective: StepObjective, x0, tol) -> tuple[NewtonResult, int]:
         """Newton from x0; with friction, normal forces and tangents are re-lagged at the

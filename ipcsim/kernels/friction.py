@@ -395,3 +395,21 @@ def triplet_offsets(verts):
             nv += verts[k, i] >= 0
         off[k + 1] = off[k] + 9 * nv * nv
     return off
+
+
+
+
+@njit(cache=True, error_model="numpy")
+def ramp_unresolved(u, p, verts, coeffs, basis, eps, fraction):
+    """True when some pair in the static ramp (slip |τ(u)| < ε, τ(v) = Pᵀ Σ c_i v_i)
+    would still change its slip by fraction·ε or more along the direction p (n, 3)."""
+    limit = (fraction * eps) ** 2
+    for k in range(verts.shape[0]):
+        P = basis[k]
+        t0, t1 = _tangential(u, verts[k], coeffs[k], P)
+        if t0 * t0 + t1 * t1 >= eps * eps:
+            continue
+        d0, d1 = _tangential(p, verts[k], coeffs[k], P)
+        if d0 * d0 + d1 * d1 >= limit:
+            return True
+    return False

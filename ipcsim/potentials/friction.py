@@ -6,6 +6,17 @@ over the pairs frozen in ``ctx.friction`` (``contact.friction_lag``): mesh PT/EE
 vertex–plane pairs active at x_lag, with their normal forces λ_k, closest-point
 coefficients and tangent bases P_k. With ε = ε_v h and u = x − x_start this equals ipctk's
 FrictionPotential(ε) at V = u.
+
+Where a pair's slip y = |P_kᵀ r_k(u)| is below ε, friction is the static ramp, a spring of
+stiffness ~ 2μλ/ε: there a Newton step is tiny even far from the solution, and ‖p‖∞ <
+tol says nothing about whether the pair sticks or slides. ``resolved`` is the extra
+stopping test for exactly those pairs: the Newton direction must change their slip by
+less than ``ramp_resolution``·ε. Without it a body that should start sliding stops inside
+the ramp at every step and creeps at ε_v instead (a ramp softens towards y = ε, f1'(ε) = 0,
+so a pair whose driving force exceeds μλ gets long steps there and leaves it), and the
+creep of a sticking body is off by far more than smoothing allows. Sliding pairs, free
+bodies and scenes without friction keep the plain test, as in the original; a scene's own
+tolerance decides the rest.
 """
 
 from __future__ import annotations
@@ -23,6 +34,7 @@ from .base import StepContext, Triplets
 class Friction:
     eps: float  # ε_v·h, the sliding displacement below which friction ramps up
     project: bool = True
+    ramp_resolution: float = 0.1  # ramp pairs: converged when p changes their slip < this·ε
     name: ClassVar[str] = "friction"
     constant_pattern: ClassVar[bool] = False
 
@@ -55,3 +67,13 @@ class Friction:
         return Triplets(*kf.friction_hessian_triplets(
             self._u(x, f), f.verts, f.coeffs, f.basis, f.weight, self.eps, self.project,
             f.offsets))
+
+    def resolved(self, x, p, ctx: StepContext) -> bool:
+        """False while the Newton direction p (3n,) would change the slip of some pair in
+        the static ramp (slip < ε at x) by ramp_resolution·ε or more."""
+        f = ctx.friction
+        if f is None or f.count == 0:
+            return True
+        return not kf.ramp_unresolved(self._u(x, f), np.ascontiguousarray(p.reshape(-1, 3)),
+                                      f.verts, f.coeffs, f.basis, self.eps,
+                                      self.ramp_resolution)

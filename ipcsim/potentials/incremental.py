@@ -99,6 +99,12 @@ class IncrementalPotential:
                 alpha = min(alpha, bound(x, p, ctx))
         return alpha
 
+    def resolved(self, x: np.ndarray, p: np.ndarray, ctx: StepContext) -> bool:
+        """Whether every term that has a stopping test of its own (friction's static
+        ramp) accepts the Newton direction p at x."""
+        return all(t.term.resolved(x, p, ctx) for t in self.terms
+                   if getattr(t.term, "resolved", None) is not None)
+
     def nonfinite_terms(self, x: np.ndarray, ctx: StepContext, p=None) -> list[str]:
         """Names of the terms whose value, gradient or Hessian at ``x`` (or, with ``p``,
         whose step bound along p) is NaN or infinite: what a failure report names."""

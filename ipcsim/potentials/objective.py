@@ -8,6 +8,7 @@ The objective owns the step's refreshes, so that Newton knows nothing of contact
   contact keeps closing in below dTol) and returns E, ∇E and the PSD Hessian at x;
 * ``max_step(x, p)`` bounds the step (the terms' own bounds, mesh CCD) and returns a
   ``LineSearch`` whose energies use every pair that comes within d̂ along [x, x + αp];
+* ``resolved(x, p)`` is the terms' own stopping test (friction's static ramp);
 * ``lag_friction(x)`` freezes friction's normal forces and bases at x.
 
 Its state is explicit: the step's ``StepContext`` (replaced, never written to), the
@@ -131,6 +132,10 @@ class StepObjective:
                 alpha = min(alpha, bound.alpha)
                 ctx = dataclasses.replace(ctx, collisions=bound.collisions)
         return LineSearch(self, x, p3, alpha, ctx)
+
+    def resolved(self, x: np.ndarray, p: np.ndarray) -> bool:
+        """The terms' own stopping tests (friction's static ramp) on the direction p."""
+        return self.potential.resolved(x, p, self.ctx)
 
     def nonfinite_terms(self, x: np.ndarray, p: np.ndarray | None = None) -> list[str]:
         return self.potential.nonfinite_terms(x, self.ctx, p)

@@ -33,7 +33,9 @@ def incremental_potential(model, force_weight: float) -> IncrementalPotential:
                                                  force_weight)))
     terms.extend(contact_terms(model))
     if model.needs_friction:  # only where some μ > 0
-        terms.append(WeightedTerm(Friction(model.epsv * model.dt)))  # ε_v·h, the scene's h
+        # ε_v·h with the scene's own h
+        terms.append(WeightedTerm(Friction(model.epsv * model.dt,
+                                           ramp_resolution=model.solver.friction_ramp_resolution)))
     return IncrementalPotential(tuple(terms))
 
 

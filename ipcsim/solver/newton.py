@@ -1,10 +1,10 @@
 """Projected Newton with a feasibility-filtered backtracking line search.
 
 One call minimises an objective: anything with ``kinematic`` (n,) and ``target`` (n, 3),
-``evaluate(x, order) -> Evaluation`` (E, ∇E, PSD Hessian triplets) and ``max_step(x, p) ->
-LineSearch`` (the feasible α and the energy along p). Kinematic DOFs are eliminated: their
-part of the search direction is the remaining prescribed motion p_k = target − x_k, and the
-free part solves
+``evaluate(x, order) -> Evaluation`` (E, ∇E, PSD Hessian triplets), ``max_step(x, p) ->
+LineSearch`` (the feasible α and the energy along p) and ``resolved(x, p) -> bool``.
+Kinematic DOFs are eliminated: their part of the search direction is the remaining
+prescribed motion p_k = target − x_k, and the free part solves
 
     H_ff p_f = −g_f − H_fk p_k
 
@@ -14,9 +14,10 @@ so no iterate ever intersects or inverts. While prescribed motion remains, the l
 feasible step is taken (the energy of an unfinished constraint is not comparable); once
 the kinematic DOFs sit on their targets, α is halved until the energy decreases.
 
-Stopping rule, as the original: ‖p‖∞ < tol (absolute, tol·l·h) with the motion complete;
-the converged direction is still taken (it costs no solve), so a step always moves by at
-least one Newton direction and a slow body does not stall below the tolerance.
+Stopping rule, as the original: ‖p‖∞ < tol (absolute, tol·l·h) with the motion complete,
+and the objective's own test of p (``resolved``: friction's static ramp); the
+converged direction is still taken (it costs no solve), so a step always moves by at least
+one Newton direction and a slow body does not stall below the tolerance.
 """
 
 from __future__ import annotations
@@ -109,7 +110,8 @@ class NewtonSolver:
                    "gradient_norm": float(np.linalg.norm(ev.gradient[~kin_dofs])),
                    "kappa": ev.kappa,
                    "residual_ratio": step_norm / tol if tol > 0 else np.nan}
-            converged = run.kinematic_complete and step_norm < tol
+            converged = (run.kinematic_complete and step_norm < tol
+                         and objective.resolved(x, p))
             if converged and step_norm == 0.0:
                 alpha = 0.0  # nothing left to do
                 energy = ev.energy if energy is None else energy

@@ -416,3 +416,28 @@ def test_friction_potential_empty_and_mu_zero():
     assert fr.value(X + u) == pytest.approx(0.5 * lam * 0.002, rel=1e-12)
     u[:] = [0.3, -0.2, 0.1]  # rigid translation: no slip
     assert fr.value(X + u) == pytest.approx(0.5 * lam * 1e-3 / 3, rel=1e-10)
+
+
+def test_ramp_pairs_must_be_resolved_before_newton_stops():
+    """Friction.resolved: a pair whose slip is inside the static ramp (< ε) blocks
+    convergence while the direction still changes its slip by ≥ ramp_resolution·ε; a
+    sliding pair, a normal motion and a small tangential change do not."""
+    eps = 1e-3
+    fr = Friction(eps)
+    x_lag = np.array([[0.0, 0.05, 0.0]])  # one vertex 0.05 above the ground
+    fr.lag(x_lag, np.zeros((0, 4), np.int64), np.zeros((0, 4), np.int64), np.zeros(0),
+           np.array([0]), np.zeros((1, 3)), np.array([[0.0, 1.0, 0.0]]), np.array([0.5]),
+           0.0, 10.0, 0.1)
+    assert fr.count == 1
+
+    def resolved(slip, step):
+        x = x_lag + np.array([[slip, 0.0, 0.0]])
+        return fr.term.resolved(x, np.array([step]).reshape(-1), fr.ctx)
+
+    assert not resolved(0.5 * eps, [0.2 * eps, 0.0, 0.0])  # in the ramp, still moving
+    assert not resolved(0.0, [0.0, 0.0, 0.15 * eps])  # from rest, sideways
+    assert resolved(0.5 * eps, [0.05 * eps, 0.0, 0.0])  # in the ramp, settled
+    assert resolved(0.5 * eps, [0.0, 0.3, 0.0])  # along the normal only
+    assert resolved(2.0 * eps, [0.5 * eps, 0.0, 0.0])  # sliding: the plain test decides
+    assert FrictionTerm(eps, ramp_resolution=0.5).resolved(
+        x_lag + [[0.5 * eps, 0, 0]], np.array([0.2 * eps, 0, 0]), fr.ctx)
