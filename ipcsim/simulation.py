@@ -26,6 +26,7 @@ from .contact.intersection import find_intersections
 from .contact.setup import ContactSetup
 from .contact.stiffness import BarrierStiffness, kappa_bounds
 from .errors import InfeasibleStartError, NonFiniteError, SolverError
+from .kernels.threads import use_threads
 from .model.kinematics import kinematic_targets, nbc_accelerations
 from .potentials.base import StepContext, Triplets
 from .potentials.objective import StepObjective
@@ -60,6 +61,7 @@ class StepReport:
 class Simulation:
     def __init__(self, model, linear_solver: str | None = None):
         self.model = model
+        self.threads = use_threads(model.n_vertices)
         self.integrator = make_integrator(model.time)
         self.potential = incremental_potential(model, self.integrator.force_weight)
         self.contact = ContactSetup.from_model(model)

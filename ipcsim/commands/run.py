@@ -110,7 +110,7 @@ def main(args) -> int:
     say(f"ipcsim: {args.scene} -> {out}" + (f" (resuming after step {first_step})"
                                             if resume else ""))
     say("modelled terms: " + "; ".join(model.terms))
-    say(f"linear solver: {sim.linear_solver.name}")
+    say(f"linear solver: {sim.linear_solver.name}; threads: {sim.threads}")
 
     n_steps = scene.n_steps if args.steps is None else min(args.steps, scene.n_steps)
     every = frame_interval_for(scene)

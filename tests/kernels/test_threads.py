@@ -1,0 +1,46 @@
+"""Threads are chosen on purpose: never the TBB layer unless the user asks for it, one
+thread for small problems, and IPCSIM_THREADS fixes the count."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import numba
+import pytest
+
+from ipcsim.kernels import threads
+
+
+def test_the_layer_is_never_tbb_by_default():
+    if "NUMBA_THREADING_LAYER" in os.environ:
+        pytest.skip("the user chose a layer")
+    assert threads.choose_layer() in ("omp", "workqueue")
+
+
+def test_a_fresh_process_runs_a_parallel_kernel_on_the_chosen_layer():
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_THREADING_LAYER"}
+    code = ("import numpy as np, numba\n"
+            "from ipcsim.kernels import broad_phase as bp\n"
+            "x = np.random.default_rng(0).random((50, 3))\n"
+            "bp.primitive_boxes(x, x, np.arange(50).reshape(-1, 1), 0.1)\n"
+            "print(numba.threading_layer())\n")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                         text=True, check=True).stdout.split()
+    assert out[-1] in ("omp", "workqueue")
+
+
+def test_small_problems_run_on_one_thread(monkeypatch):
+    monkeypatch.delenv("IPCSIM_THREADS", raising=False)
+    assert threads.threads_for(threads.PARALLEL_FROM_VERTICES - 1) == 1
+    big = threads.threads_for(10 * threads.PARALLEL_FROM_VERTICES)
+    assert 1 <= big <= numba.config.NUMBA_NUM_THREADS
+
+
+def test_ipcsim_threads_fixes_the_count(monkeypatch):
+    monkeypatch.setenv("IPCSIM_THREADS", "1")
+    assert threads.threads_for(10 * threads.PARALLEL_FROM_VERTICES) == 1
+    monkeypatch.setenv("IPCSIM_THREADS", "many")
+    with pytest.warns(UserWarning, match="not a positive integer"):
+        threads.threads_for(10)
