@@ -5,8 +5,8 @@ edits a CSR matrix in place. Terms whose sparsity pattern never changes (inertia
 elasticity, damping: ``constant_pattern = True``) return the same index arrays on every
 call, so the map from each of their triplets to a slot of the CSC matrix is computed once
 per kinematic mask, and each iteration only scatter-adds values (a linear pass instead of
-a sort of millions of triplets). Triplets of terms whose pattern changes (contact) form a
-small second matrix added on top.
+a sort of millions of triplets). Triplets of terms whose pattern changes (contact,
+friction) are merged into that matrix by one kernel (``kernels/assembly.py``).
 
 ``assemble`` also returns the coupling H_fk p_k, the free rows' product with the
 prescribed motion of kinematic DOFs, which the Newton step subtracts from its right side.
@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from ..kernels.assembly import add_triplets
 from ..kernels.scatter import scatter_add
 
 
@@ -68,17 +69,12 @@ class Assembler:
             if len(fk):
                 coupling += np.bincount(fk_rows, weights=part.vals[fk] * p[fk_cols],
                                         minlength=n_free)
-        A = sp.csc_matrix((data, pat.indices, pat.indptr), shape=(n_free, n_free))
         if dynamic_parts:
             rows = np.concatenate([d.rows for d in dynamic_parts])
             cols = np.concatenate([d.cols for d in dynamic_parts])
             vals = np.concatenate([d.vals for d in dynamic_parts])
-            rf, cf = free_index[rows], free_index[cols]
-            ff = (rf >= 0) & (cf >= 0)
-            if ff.any():
-                A = A + sp.csc_matrix((vals[ff], (rf[ff], cf[ff])), shape=(n_free, n_free))
-            fk = (rf >= 0) & (cf < 0)
-            if fk.any():
-                coupling += np.bincount(rf[fk], weights=vals[fk] * p[cols[fk]],
-                                        minlength=n_free)
-        return A, coupling
+            indptr, indices, data = add_triplets(pat.indptr, pat.indices, data, rows, cols,
+                                                 vals, free_index, p, coupling)
+        else:
+            indptr, indices = pat.indptr, pat.indices
+        return sp.csc_matrix((data, indices, indptr), shape=(n_free, n_free)), coupling
