@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import IpcsimError
-from .atomic import atomic_write_bytes
+from ..atomic import atomic_write_bytes
 
 __all__ = ["CHECKPOINT_NAME", "CheckpointError", "read_checkpoint", "write_checkpoint"]
 

@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import IpcsimError
-from .atomic import atomic_path, atomic_write_text
+from ..atomic import atomic_path, atomic_write_text
 from .render import load_run_frames, RenderError
 
 __all__ = ["COUNT_COLUMNS", "GOLDEN_FORMAT", "CompareError", "CompareResult", "Reference",

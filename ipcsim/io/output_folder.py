@@ -12,7 +12,7 @@ import shutil
 from pathlib import Path
 
 from ..errors import IpcsimError
-from .atomic import is_temporary_name
+from ..atomic import is_temporary_name
 from .checkpoint import CHECKPOINT_NAME
 from .csv_log import NewtonLog, StepLog
 from .run_info import RUN_INFO_NAME

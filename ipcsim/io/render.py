@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import IpcsimError
-from .atomic import atomic_path
+from ..atomic import atomic_path
 from .vtk import FRAMES_DIR, SERIES_NAME, frame_file_name, read_series
 
 __all__ = [

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import atomic_write_text
+from ..atomic import atomic_write_text
 
 __all__ = ["RUN_INFO_NAME", "RUN_KEYS", "environment_info", "now_iso", "write_run_info"]
 

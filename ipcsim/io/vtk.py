@@ -5,7 +5,7 @@ encodes the ``<Cells>`` section a single time; each frame then only encodes the
 positions and point data. Files are VTK XML UnstructuredGrid, binary (base64) with
 zlib-compressed blocks and 64-bit headers, which ParaView, VTK/pyvista and meshio read.
 
-Every file is written atomically (see :mod:`ipcsim.io.atomic`), and ``series.pvd`` is
+Every file is written atomically (see :mod:`ipcsim.atomic`), and ``series.pvd`` is
 rewritten after each frame, so a run that stops at any moment leaves a playable series.
 """
 
@@ -21,7 +21,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from .atomic import atomic_write_bytes, atomic_write_text
+from ..atomic import atomic_write_bytes, atomic_write_text
 
 __all__ = [
     "FRAMES_DIR",

@@ -10,7 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..errors import SceneError
-from ..io.atomic import atomic_write_text
+from ..atomic import atomic_write_text
 from .spec import (
     DirichletSpec,
     InitialVelocitySpec,
