@@ -35,6 +35,9 @@ RUN_KEYS: tuple[str, ...] = (
     "steps_planned",
     "steps_done",
     "newton_iterations",
+    "steps_hitting_iteration_cap",
+    "steps_not_converged",
+    "inputs_sha256",
     "modelled_terms",
     "linear_solver",
 )

@@ -123,6 +123,8 @@ class NewtonSolver:
                     raise NonFiniteError("step bound", potential.nonfinite_terms(x, p), it)
                 if result.kinematic_complete:
                     alpha, failed, energy = self._backtrack(potential, x, p, alpha, energy)
+                    if not np.isfinite(energy):  # E at x (failed) or at x + αp
+                        raise NonFiniteError("energy", potential.nonfinite_terms(x), it)
                     if failed:
                         # no step along p lowers E in floating point: x is a minimiser to
                         # machine precision (typical when tol sits near round-off), unless
@@ -144,6 +146,8 @@ class NewtonSolver:
                 result.min_alpha = min(result.min_alpha, alpha)
             info["alpha"] = alpha
             info["energy"] = potential.value(x) if energy is None else energy
+            if not np.isfinite(info["energy"]):
+                raise NonFiniteError("energy", potential.nonfinite_terms(x), it)
             if after_iteration is not None:
                 after_iteration(x, info)
             if converged:
