@@ -31,6 +31,7 @@ __all__ = [
     "load_scene",
     "save_scene",
     "read_scene_text",
+    "scene_text",
     "scene_format",
     "MAX_SCENE_BYTES",
     "parse_txt",
@@ -84,6 +85,12 @@ def read_scene_text(path) -> str:
     except OSError as exc:
         raise SceneError(path, None, f"cannot read scene file ({exc.strerror or exc})") from None
     _check_size(path, len(data))
+    return scene_text(data, path)
+
+
+def scene_text(data: bytes, path) -> str:
+    """The text of a scene file's bytes: UTF-8 (a BOM allowed) without NUL bytes, else a
+    SceneError at the line of the first bad byte."""
     try:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
