@@ -278,7 +278,7 @@ def main(args) -> int:
         if message is not None:
             print(f"ipcsim: {message}", file=sys.stderr)
         _run_info(run, status, failure, wall0, started)
-    except OSError as exc:
+    except (OSError, OutputError) as exc:
         raise _output_error(run, exc) from None
     if status == 0:
         say(f"done: {run.sim.state.step - run.first_step} steps, {_newton_total(run)} Newton "
@@ -303,15 +303,18 @@ def _newton_total(run: _Run) -> int:
     return int(np.sum(logged.get("newton_iterations", np.zeros(0))[steps > run.first_step]))
 
 
-def _output_error(run: _Run, exc: OSError) -> OutputError:
+def _output_error(run: _Run, exc: OSError | OutputError) -> OutputError:
     """A write that failed (a full disk, a folder made read-only) as one line: what
     could not be written, and how to go on."""
     from ..io.checkpoint import CHECKPOINT_NAME
 
-    where = exc.filename or run.out
+    if isinstance(exc, OSError):
+        what = f"cannot write {exc.filename or run.out}: {exc.strerror or exc}"
+    else:
+        what = str(exc)
     if (run.out / CHECKPOINT_NAME).is_file():
         then = f"the folder is consistent up to its checkpoint; continue with: " \
                f"{_resume_command(run)}"
     else:
         then = "nothing could be saved to resume from; run again"
-    return OutputError(f"cannot write {where}: {exc.strerror or exc}; {then}")
+    return OutputError(f"{what}; {then}")

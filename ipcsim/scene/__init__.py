@@ -11,7 +11,7 @@ import os
 import stat
 from pathlib import Path
 
-from ..errors import SceneError
+from ..errors import OutputError, SceneError
 from ..atomic import atomic_write_text
 from .spec import (
     DirichletSpec,
@@ -131,5 +131,5 @@ def save_scene(spec: SceneSpec, path) -> Path:
     try:
         atomic_write_text(path, text)
     except OSError as exc:
-        raise SceneError(path, None, f"cannot write ({exc.strerror or exc})") from None
+        raise OutputError(f"{path}: cannot write ({exc.strerror or exc})") from None
     return path
