@@ -217,3 +217,33 @@ def test_python_dash_m_ipcsim_and_no_traceback_across_the_process_boundary(tmp_p
                          timeout=120)
     assert res.returncode == 2 and "Traceback" not in res.stderr
     assert res.stderr.strip().startswith(f"{bad}:2:")
+
+
+def test_a_read_only_folder_is_refused_before_overwrite_or_resume_touch_it(drop, tmp_path,
+                                                                          monkeypatch, capsys):
+    """(Simulated: the tests may run as root, for whom every folder is writable.)"""
+    import ipcsim.io.output_folder as output_folder
+
+    old = tmp_path / "old"
+    assert main(["run", str(drop), "-o", str(old), "-q", "--steps", "2"]) == 0
+    before = files(old)
+    monkeypatch.setattr(output_folder.os, "access", lambda path, mode: False)
+    for extra in (["--overwrite"], ["--resume"]):
+        assert main(["run", str(drop), "-o", str(old), "-q", *extra]) == 2
+        err = capsys.readouterr().err.strip()
+        assert "permission denied" in err and "\n" not in err
+        assert files(old) == before
+
+
+def test_overwrite_that_cannot_remove_the_old_run_is_one_line(drop, tmp_path, monkeypatch,
+                                                              capsys):
+    old = tmp_path / "old"
+    assert main(["run", str(drop), "-o", str(old), "-q", "--steps", "2"]) == 0
+
+    def refuse(self, *args, **kwargs):
+        raise PermissionError(13, "Permission denied", str(self))
+
+    monkeypatch.setattr(Path, "unlink", refuse)
+    assert main(["run", str(drop), "-o", str(old), "-q", "--overwrite"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "cannot prepare output folder" in err and "\n" not in err

@@ -189,3 +189,17 @@ def test_a_full_disk_before_the_first_checkpoint_says_to_run_again(scene, monkey
         assert main(["run", str(scene), "-o", str(out), "-q"]) == 2
     err = capsys.readouterr().err.strip()
     assert "No space left on device" in err and "run again" in err and "\n" not in err
+
+
+def test_a_full_disk_while_resuming_leaves_the_folder_resumable(scene, reference,
+                                                                monkeypatch, capsys):
+    out = scene.parent / "full-resume"
+    run = ["run", str(scene), "-o", str(out), "-q"]
+    assert main(run + ["--steps", "16"]) == 0  # a frame step: the same frames as a whole run
+    with monkeypatch.context() as m:
+        _FullDisk(m, "steps.csv", 1)  # the log is rewritten without the dropped rows
+        assert main(run + ["--resume"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "No space left on device" in err and "--resume" in err and "\n" not in err
+    assert main(run + ["--resume"]) == 0
+    assert_same_end_state(out, reference)
