@@ -1,9 +1,15 @@
 """``ipcsim run SCENE``: simulate and write frames, logs and the resolved scene.
 
+Everything is read, built and checked before the first byte is written: the scene, its
+meshes, the simulation's start, the output folder and, for ``--resume``, the checkpoint
+against the folder; so a bad input leaves every folder as it was, and ``--overwrite``
+removes the old run only once the new one can start.
+
 Nothing is lost on a crash: each step's CSV rows are flushed before the next step starts,
 frames and the checkpoint are replaced atomically, and the checkpoint is written after
-its frame. ``--resume`` continues from the checkpoint (after a kill, even SIGKILL), and
-Ctrl-C stops after the current step with a fresh checkpoint (exit status 130).
+its frame. ``--resume`` continues from the checkpoint (after a kill, even SIGKILL, or a
+full disk), and Ctrl-C stops after the current step with a fresh checkpoint (exit status
+130).
 """
 
 from __future__ import annotations
@@ -68,14 +74,26 @@ class _Run:
     model: object
     sim: object
     out: Path
-    resume: bool
     digest: str
-    first_step: int
-    n_steps: int
-    every: int
+    first_step: int = 0  # the checkpoint's step for --resume
     frames: object = None
     renderer: object = None
-    warned: int = 0
+    warned: int = 0  # steps that did not converge, in this invocation
+    newton_total: int = 0  # Newton iterations, in this invocation
+
+    @property
+    def resume(self) -> bool:
+        return bool(getattr(self.args, "resume", False))
+
+    @property
+    def n_steps(self) -> int:
+        """The last step of this invocation (``--steps``, at most the scene's)."""
+        steps = self.args.steps
+        return self.scene.n_steps if steps is None else min(steps, self.scene.n_steps)
+
+    @property
+    def every(self) -> int:
+        return frame_interval_for(self.scene)
 
 
 def _build(args) -> _Run:
@@ -89,9 +107,7 @@ def _build(args) -> _Run:
     mode = "resume" if resume else ("overwrite" if args.overwrite else "new")
     requested = args.output or default_output_folder(args.scene, scene.append_str)
     out = resolve_output_folder(requested, args.scene, mode=mode)
-    n_steps = scene.n_steps if args.steps is None else min(args.steps, scene.n_steps)
-    run = _Run(args, scene, model, sim, out, resume, inputs_digest(scene), 0, n_steps,
-               frame_interval_for(scene))
+    run = _Run(args, scene, model, sim, out, inputs_digest(scene))
     if resume:
         run.first_step = _check_resume(run)
     return run
@@ -189,6 +205,7 @@ def _step_loop(run: _Run, step_log, newton_log, progress, stop) -> None:
         for it in report["newton"]:
             newton_log.append(it)
         k = sim.state.step
+        run.newton_total += row["newton_iterations"]
         _warn_about(run, row, k)
         stopping = stop.requested and k < n_steps  # read once: Ctrl-C may come now
         if k % run.every == 0 or k == n_steps:
@@ -270,8 +287,10 @@ def _run_info(run: _Run, status: int, failure, wall0: float, started: str) -> No
 
 
 def main(args) -> int:
+    from ..io.run_info import now_iso
+
     say = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
-    wall0, started = time.perf_counter(), _now()
+    wall0, started = time.perf_counter(), now_iso()
     run = _build(args)  # everything is checked before the first byte is written
     try:
         status, failure, message = _simulate(run, say)
@@ -281,26 +300,12 @@ def main(args) -> int:
     except (OSError, OutputError) as exc:
         raise _output_error(run, exc) from None
     if status == 0:
-        say(f"done: {run.sim.state.step - run.first_step} steps, {_newton_total(run)} Newton "
+        say(f"done: {run.sim.state.step - run.first_step} steps, {run.newton_total} Newton "
             f"iterations, {time.perf_counter() - wall0:.1f} s")
         if run.warned:
             print(f"warning: {run.warned} steps did not converge (run.json: "
                   "steps_not_converged)", file=sys.stderr)
     return status
-
-
-def _now() -> str:
-    from ..io.run_info import now_iso
-
-    return now_iso()
-
-
-def _newton_total(run: _Run) -> int:
-    from ..io.csv_log import StepLog, read_csv
-
-    logged = read_csv(run.out / StepLog.FILE_NAME)
-    steps = logged.get("step", np.zeros(0, np.int64))
-    return int(np.sum(logged.get("newton_iterations", np.zeros(0))[steps > run.first_step]))
 
 
 def _output_error(run: _Run, exc: OSError | OutputError) -> OutputError:
