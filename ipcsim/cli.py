@@ -1,18 +1,23 @@
 """The ``ipcsim`` command line: ``main(argv) -> exit status``.
 
-Exit status: 0 success, 2 bad input (scene, mesh, arguments), 3 the simulation failed,
-130 interrupted. Library code raises typed errors (``ipcsim.errors``); only this module
+Exit status: 0 success, 1 a check or comparison found a difference, 2 bad input (scene,
+mesh, arguments, a damaged run folder) or an output folder that cannot be used or written,
+3 the simulation failed, 130 interrupted. Library code raises typed errors (``ipcsim.errors``); only this module
 turns them into messages, so a user never sees a Python traceback for a mistake of theirs.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
+import warnings
+
+import numpy as np
 
 from . import __version__
-from .errors import IpcsimError, SceneError
+from .errors import IpcsimError, SceneError, excerpt, one_line
 
 
 def _cmd_check(args) -> int:
@@ -45,39 +50,85 @@ def _cmd_compare(args) -> int:
     return compare.main(args)
 
 
+def _positive_int(text: str) -> int:
+    """argparse type: a whole number >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got '{excerpt(text)}'")
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def _finite_float(text: str) -> float:
+    """argparse type: a finite number."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got '{excerpt(text)}'")
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text}")
+    return value
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with a usage error on one line (exit status 2), like every other error."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {one_line(message)} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="ipcsim",
         description="Incremental Potential Contact simulator driven by scene files "
         "(the original IPC text format or TOML).",
+        epilog="Exit status: 0 success, 1 check --frames or compare found a difference, "
+        "2 bad input or an output folder that cannot be used, 3 the simulation failed, "
+        "130 interrupted.",
     )
     parser.add_argument("--version", action="version", version=f"ipcsim {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    _add_check(sub)
+    _add_run(sub)
+    _add_convert(sub)
+    _add_render(sub)
+    _add_compare(sub)
+    return parser
 
+
+def _add_check(sub) -> None:
     p = sub.add_parser("check", help="read a scene, build its model and print what it "
-                       "contains; or verify a run's frames (--frames)")
+                       "contains (refusing what run refuses); or verify a run's frames "
+                       "(--frames)")
     p.add_argument("scene", nargs="?", help="scene file (.txt or .toml)")
     p.add_argument("--frames", metavar="OUT",
                    help="check every frame of the run in OUT for intersections and inverted "
                         "tets (exact predicates); exit 1 if any")
     p.set_defaults(func=_cmd_check)
 
+
+def _add_run(sub) -> None:
     p = sub.add_parser("run", help="simulate a scene and write frames and logs",
                        description="Simulate a scene and write frames and logs. Shows a "
                        "progress bar on a terminal and a line every 5 % of the steps (or "
                        "30 s) otherwise. Ctrl-C stops after the current step (exit status "
-                       "130); --resume continues. Exit status: 0 done, 2 bad input, 3 the "
-                       "simulation failed (NaN, solver), 130 interrupted.")
+                       "130); --resume continues. Exit status: 0 done, 2 bad input or an "
+                       "output folder that cannot be used or written, 3 the simulation "
+                       "failed (NaN, solver), 130 interrupted.")
     p.add_argument("scene", help="scene file (.txt or .toml)")
     p.add_argument("-o", "--output", metavar="DIR",
-                   help="output folder (default: output/<scene-stem>)")
+                   help="output folder (default: output/<scene-stem>, with _<appendStr> "
+                        "when the scene sets appendStr)")
     again = p.add_mutually_exclusive_group()
     again.add_argument("--overwrite", action="store_true",
-                       help="replace an existing output folder")
+                       help="replace an existing output folder (its old run is removed only "
+                            "once the new one has been built and checked)")
     again.add_argument("--resume", action="store_true",
                        help="continue the run in the output folder from its last checkpoint "
                             "(written with every frame and on Ctrl-C), e.g. after a crash")
-    p.add_argument("--steps", type=int, metavar="N",
+    p.add_argument("--steps", type=_positive_int, metavar="N",
                    help="stop after step N (default: ceil(duration/dt))")
     p.add_argument("--render", action="store_true",
                    help="also draw each frame as a PNG into DIR/render as it is written "
@@ -88,15 +139,20 @@ def build_parser() -> argparse.ArgumentParser:
                    help="print every Newton iteration as it happens")
     p.set_defaults(func=_cmd_run)
 
+
+def _add_convert(sub) -> None:
     p = sub.add_parser("convert", help="convert a scene between the text and TOML forms")
     p.add_argument("source", help="scene to read (.txt or .toml)")
-    p.add_argument("target", help="scene to write (.txt or .toml)")
+    p.add_argument("target", help="scene to write (.txt or .toml); not the source itself")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing target")
     p.set_defaults(func=_cmd_convert)
 
+
+def _add_render(sub) -> None:
     p = sub.add_parser("render", help="draw a run's frames off screen as PNGs "
                        "(and optionally a GIF or MP4)")
     p.add_argument("folder", metavar="OUT", help="output folder of a run")
-    p.add_argument("--every", type=int, default=1, metavar="K",
+    p.add_argument("--every", type=_positive_int, default=1, metavar="K",
                    help="render every K-th of the selected frames (default 1)")
     p.add_argument("--frames", metavar="A:B",
                    help="only frames of steps A <= step < B (either end may be left out)")
@@ -105,12 +161,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="also write render/animation.mp4 (needs imageio and imageio-ffmpeg)")
     p.add_argument("--field", choices=("velocity", "none"), default="none",
                    help="colour by |velocity| instead of by body (default none)")
-    p.add_argument("--azimuth", type=float, default=30.0, metavar="DEG",
+    p.add_argument("--azimuth", type=_finite_float, default=30.0, metavar="DEG",
                    help="camera angle about the vertical y axis; 0 looks along -z "
                         "(default 30)")
-    p.add_argument("--elevation", type=float, default=20.0, metavar="DEG",
+    p.add_argument("--elevation", type=_finite_float, default=20.0, metavar="DEG",
                    help="camera angle above the horizontal (default 20)")
-    p.add_argument("--zoom", type=float, default=1.0, metavar="Z",
+    p.add_argument("--zoom", type=_finite_float, default=1.0, metavar="Z",
                    help="magnify the view that frames the whole run (default 1)")
     p.add_argument("--size", type=int, nargs=2, default=(800, 600), metavar=("W", "H"),
                    help="image size in pixels (default 800 600)")
@@ -118,32 +174,46 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
     p.set_defaults(func=_cmd_render)
 
+
+def _add_compare(sub) -> None:
     p = sub.add_parser("compare", help="compare two runs' frames and logs (exit 0 same, "
                        "1 different, 2 cannot compare)")
     p.add_argument("a", metavar="A", help="output folder of the reference run")
     p.add_argument("b", metavar="B", help="output folder of the other run, a folder of "
                    "the original IPC program's <n>.obj files, or a golden reference .json "
                    "(tests/regression/golden/)")
-    p.add_argument("--rtol", type=float, default=1e-6, metavar="R",
+    p.add_argument("--rtol", type=_finite_float, default=1e-6, metavar="R",
                    help="allowed vertex displacement as a fraction of the scene size "
                         "(bounding-box diagonal of A's first frame; default 1e-6)")
-    p.add_argument("--atol", type=float, default=0.0, metavar="A",
+    p.add_argument("--atol", type=_finite_float, default=0.0, metavar="A",
                    help="allowed vertex displacement in metres, added to rtol's (default 0)")
     p.add_argument("--plot", metavar="FILE.png", help="chart the differences over time")
     p.set_defaults(func=_cmd_compare)
-    return parser
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Python warnings (from libraries or the simulation) as one line each."""
+    print(f"warning: {one_line(message)}", file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help, --version, or a usage error (already printed)
+        return exc.code if isinstance(exc.code, int) else 2
     if getattr(args, "func", None) is None:
         parser.print_help()
         return 2
     try:
-        return int(args.func(args) or 0)
+        # the simulation checks for NaN and infinity itself and names the term; numpy's
+        # own overflow warnings would only add lines
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.showwarning = _show_warning
+            return int(args.func(args) or 0)
     except IpcsimError as exc:
-        print(str(exc) if isinstance(exc, SceneError) else f"ipcsim: {exc}", file=sys.stderr)
+        text = str(exc) if isinstance(exc, SceneError) else f"ipcsim: {exc}"
+        print(one_line(text), file=sys.stderr)
         return exc.exit_status
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
@@ -151,6 +221,10 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:  # output piped into a reader that stopped (`| head`)
         sys.stderr = open(os.devnull, "w")
         return 0
+    except OSError as exc:  # a write the command did not expect to fail (a full disk)
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(one_line(f"ipcsim: {where}{exc.strerror or exc}"), file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

@@ -3,6 +3,26 @@ a message and an exit status (2 for bad input, 3 for a failed simulation)."""
 
 from __future__ import annotations
 
+EXCERPT_CHARS = 40  # at most this much of a user's text is quoted in a message
+
+
+def excerpt(text, limit: int = EXCERPT_CHARS) -> str:
+    """``text`` as a message may quote it: at most ``limit`` characters, control and other
+    unprintable characters escaped (``\\x00``), and a note of how much was left out."""
+    s = str(text)
+    head = s[:limit]
+    shown = "".join(c if c.isprintable() else repr(c)[1:-1] for c in head)
+    if len(s) > limit:
+        shown += f"... ({len(s)} characters)"
+    return shown
+
+
+def one_line(message: str, limit: int = 500) -> str:
+    """A message as one line of at most about ``limit`` characters."""
+    flat = " ".join(str(message).split())
+    return flat if len(flat) <= limit else flat[: limit - 3] + "..."
+
+
 
 class IpcsimError(Exception):
     """Base class of every error ipcsim reports to a user."""
@@ -67,6 +87,11 @@ class NonFiniteError(SolverError):
         else:
             culprit = "although every term is finite (the linear solve failed)"
         return f"{where}: the {self.quantity} is not finite (NaN or infinity) {culprit}"
+
+
+class OutputError(IpcsimError):
+    """Output cannot be written (a full disk, a read-only folder); what was written before
+    stays complete, and a run can be resumed once the cause is removed."""
 
 
 class InfeasibleStartError(IpcsimError):

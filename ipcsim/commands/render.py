@@ -21,7 +21,7 @@ def main(args) -> int:
         output=Path(args.output) if args.output else None,
     )
     say = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
-    result = render_run(Path(args.folder), opt, say=say)
+    result = render_run(Path(args.folder), opt, say=say, planes=_run_planes(args.folder, say))
     pngs = result["pngs"]
     say(f"rendered {len(pngs)} frames into {pngs[0].parent}")
     if result["gif"]:
@@ -29,3 +29,14 @@ def main(args) -> int:
     if result["mp4"]:
         say(f"video: {result['mp4']}")
     return 0
+
+
+def _run_planes(folder, say) -> list:
+    """The planes of the run's scene (its ``scene.toml``), to draw with the frames."""
+    from ..scene import load_scene
+
+    scene_path = Path(folder) / "scene.toml"
+    if scene_path.is_file():
+        return list(load_scene(scene_path).planes)
+    say(f"warning: {scene_path} not found; planes are not drawn")
+    return []

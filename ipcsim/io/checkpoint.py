@@ -10,59 +10,105 @@ resumed run repeats the uninterrupted one to round-off.
 
 The run command writes a checkpoint with every frame and when it is interrupted, always
 after that step's frame and CSV rows are on disk; the file is replaced atomically, so it
-is never half written. On resume, rows and frames of steps after the checkpoint are
-dropped (they are recomputed).
+is never half written. It carries a format version and the digest of the run's inputs
+(the resolved scene and the bytes of every mesh), and :mod:`ipcsim.io.resume` checks it
+against the folder's frames and logs before ``--resume`` changes anything; then rows and
+frames of steps after the checkpoint are dropped (they are recomputed).
 """
 
 from __future__ import annotations
 
 import io
+import re
 import zipfile
 from pathlib import Path
 
 import numpy as np
 
+from ..atomic import atomic_write_bytes
 from ..errors import IpcsimError
-from .atomic import atomic_write_bytes
 
-__all__ = ["CHECKPOINT_NAME", "CheckpointError", "read_checkpoint", "write_checkpoint"]
+__all__ = ["CHECKPOINT_NAME", "CheckpointError", "FORMAT_VERSION", "read_checkpoint",
+           "write_checkpoint"]
 
 CHECKPOINT_NAME = "checkpoint.npz"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: with the inputs' digest
+_DIGEST = re.compile(r"[0-9a-f]{64}\Z")
 
 
 class CheckpointError(IpcsimError):
-    """No usable checkpoint in an output folder."""
+    """No usable checkpoint in an output folder, or one that does not fit it."""
 
 
-def write_checkpoint(folder, state, *, fsync: bool = True) -> Path:
-    """Store ``state`` (a ``Simulation.State``) as ``folder/checkpoint.npz``."""
+def write_checkpoint(folder, state, inputs_sha256: str, *, fsync: bool = True) -> Path:
+    """Store ``state`` (a ``Simulation.State``) as ``folder/checkpoint.npz``, with the
+    digest of the run's inputs (``ipcsim.scene.digest.inputs_digest``)."""
     n = len(state.x)
     dx = state.dx_elastic
     buffer = io.BytesIO()
-    np.savez(buffer, format_version=FORMAT_VERSION, step=state.step, kappa=state.kappa,
-             x=state.x, v=state.v, a=state.a,
+    np.savez(buffer, format_version=FORMAT_VERSION, inputs_sha256=np.str_(inputs_sha256),
+             step=state.step, kappa=state.kappa, x=state.x, v=state.v, a=state.a,
              dx_elastic=np.zeros((0, 3)) if dx is None else dx, num_vertices=n)
     return atomic_write_bytes(Path(folder) / CHECKPOINT_NAME, buffer.getvalue(), fsync=fsync)
 
 
+def _load(path: Path) -> dict:
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return {key: np.asarray(data[key]) for key in data.files}
+    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile) as exc:
+        raise CheckpointError(f"{path}: unreadable checkpoint "
+                              f"({type(exc).__name__}: {str(exc)[:80]})") from None
+
+
+def _scalar(ck: dict, key: str, kind: str, path: Path):
+    a = ck.get(key)
+    if a is None:
+        raise CheckpointError(f"{path}: damaged checkpoint (no '{key}')")
+    if a.shape != () or a.dtype.kind not in kind:
+        raise CheckpointError(f"{path}: damaged checkpoint ('{key}' is not a single "
+                              f"{'integer' if kind == 'iu' else 'number'})")
+    return a.item()
+
+
+def _positions(ck: dict, key: str, n: int, path: Path, allow_empty=False) -> np.ndarray:
+    a = ck.get(key)
+    if a is None:
+        raise CheckpointError(f"{path}: damaged checkpoint (no '{key}')")
+    if allow_empty and a.shape == (0, 3):
+        return a.astype(np.float64)
+    if a.shape != (n, 3) or a.dtype.kind != "f" or not np.isfinite(a).all():
+        raise CheckpointError(f"{path}: damaged checkpoint ('{key}' is not {n} finite "
+                              "3-D vectors)")
+    return a.astype(np.float64)
+
+
 def read_checkpoint(folder) -> dict:
-    """The arrays and numbers of ``folder/checkpoint.npz``; ``dx_elastic`` is None when
-    the run had not completed a step."""
+    """The state stored in ``folder/checkpoint.npz``, checked to be whole: ``step``,
+    ``kappa``, ``x``, ``v``, ``a``, ``dx_elastic`` (None when the run had not completed a
+    step) and ``inputs_sha256``. Anything else is a :class:`CheckpointError`."""
     path = Path(folder) / CHECKPOINT_NAME
     if not path.is_file():
-        raise CheckpointError(f"{folder}: nothing to resume (no {CHECKPOINT_NAME}); "
+        what = "is not a file" if path.exists() else "not found"
+        raise CheckpointError(f"{folder}: nothing to resume ({CHECKPOINT_NAME} {what}); "
                               "run without --resume")
-    try:
-        with np.load(path) as data:
-            ck = {key: data[key] for key in data.files}
-    except (OSError, ValueError, zipfile.BadZipFile) as exc:
-        raise CheckpointError(f"{path}: unreadable checkpoint ({exc})") from exc
-    if int(ck.get("format_version", -1)) != FORMAT_VERSION:
-        raise CheckpointError(f"{path}: checkpoint format {ck.get('format_version')} is not "
-                              f"{FORMAT_VERSION}; run again without --resume")
-    return {
-        "step": int(ck["step"]), "kappa": float(ck["kappa"]),
-        "x": ck["x"], "v": ck["v"], "a": ck["a"],
-        "dx_elastic": ck["dx_elastic"] if len(ck["dx_elastic"]) else None,
-    }
+    ck = _load(path)
+    version = _scalar(ck, "format_version", "iu", path) if "format_version" in ck else None
+    if version != FORMAT_VERSION:
+        raise CheckpointError(f"{path}: checkpoint format {version} is not {FORMAT_VERSION} "
+                              "(written by another ipcsim version); run again with "
+                              "--overwrite")
+    digest = ck.get("inputs_sha256")
+    if digest is None or digest.shape != () or digest.dtype.kind != "U" \
+            or not _DIGEST.match(str(digest)):
+        raise CheckpointError(f"{path}: damaged checkpoint (no digest of the inputs)")
+    step = _scalar(ck, "step", "iu", path)
+    kappa = _scalar(ck, "kappa", "fiu", path)
+    if step < 0 or not np.isfinite(kappa) or kappa < 0:
+        raise CheckpointError(f"{path}: damaged checkpoint (step {step}, kappa {kappa})")
+    n = _scalar(ck, "num_vertices", "iu", path)
+    x = _positions(ck, "x", n, path)
+    dx = _positions(ck, "dx_elastic", n, path, allow_empty=True)
+    return {"step": int(step), "kappa": float(kappa), "x": x,
+            "v": _positions(ck, "v", n, path), "a": _positions(ck, "a", n, path),
+            "dx_elastic": dx if len(dx) else None, "inputs_sha256": str(digest)}

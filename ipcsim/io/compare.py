@@ -36,8 +36,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import IpcsimError
-from .atomic import atomic_path, atomic_write_text
-from .render import load_run_frames, RenderError
+from ..atomic import atomic_path, atomic_write_text
+from .render import RenderError, load_run_frames
+from .vtk import FrameError, read_frame
 
 __all__ = ["COUNT_COLUMNS", "GOLDEN_FORMAT", "CompareError", "CompareResult", "Reference",
            "compare_runs", "golden_from_run", "mesh_signature", "plot_result",
@@ -102,12 +103,10 @@ def read_obj_vertices(path) -> np.ndarray:
 
 
 def _read_vtu(path):
-    import meshio
-
     try:
-        return meshio.read(path)
-    except Exception as exc:  # meshio raises many kinds for a damaged file
-        raise CompareError(f"{path}: cannot read frame ({exc})") from exc
+        return read_frame(path)
+    except FrameError as exc:  # a damaged input: cannot compare (not "different")
+        raise CompareError(str(exc)) from None
 
 
 def _cells(mesh) -> dict[str, np.ndarray]:
@@ -423,9 +422,15 @@ def plot_result(res: CompareResult, path) -> Path:
         ax.grid(True, alpha=0.3)
     fig.tight_layout()
     fmt = path.suffix.lstrip(".").lower() or "png"
-    with atomic_path(path, fsync=False) as tmp:
-        fig.savefig(tmp, format=fmt, dpi=100)  # temp name has no suffix to infer from
-    plt.close(fig)
+    try:
+        with atomic_path(path, fsync=False) as tmp:
+            fig.savefig(tmp, format=fmt, dpi=100)  # temp name has no suffix to infer from
+    except OSError as exc:
+        raise CompareError(f"--plot {path}: cannot write ({exc.strerror or exc})") from None
+    except ValueError as exc:  # an image format matplotlib does not know
+        raise CompareError(f"--plot {path}: {str(exc)[:120]}") from None
+    finally:
+        plt.close(fig)
     return path
 
 

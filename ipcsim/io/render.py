@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import IpcsimError
-from .atomic import atomic_path
-from .vtk import FRAMES_DIR, SERIES_NAME, frame_file_name, read_series
+from ..atomic import atomic_path
+from .vtk import FRAMES_DIR, SERIES_NAME, FrameError, frame_file_name, read_frame, read_series
 
 __all__ = [
     "OBSTACLE_RGB",
@@ -116,7 +116,7 @@ def load_run_frames(folder) -> RunFrames:
                 m = _FRAME_RE.match(p.name)
                 if m:
                     times[int(m.group(1))] = t
-        except Exception:  # a damaged series only costs the times; frames carry TimeValue
+        except FrameError:  # a damaged series only costs the times; frames carry TimeValue
             times = {}
     steps = sorted(found)
     return RunFrames(folder, steps, [found[s] for s in steps],
@@ -124,12 +124,10 @@ def load_run_frames(folder) -> RunFrames:
 
 
 def _read_frame(path: Path):
-    import meshio
-
     try:
-        return meshio.read(path)
-    except Exception as exc:  # meshio raises many kinds for a damaged file
-        raise RenderError(f"{path}: cannot read frame ({exc})") from exc
+        return read_frame(path)
+    except FrameError as exc:
+        raise RenderError(str(exc)) from None
 
 
 def _cells(mesh, kind: str) -> np.ndarray:
@@ -240,6 +238,9 @@ def _write_mp4(path: Path, images: list[np.ndarray], fps: float) -> None:
 
 
 def _validate(opt: RenderOptions) -> tuple[int, int]:
+    for name in ("azimuth", "elevation", "zoom"):
+        if not math.isfinite(getattr(opt, name)):
+            raise RenderError(f"--{name} must be a finite number, got {getattr(opt, name)}")
     if opt.every < 1:
         raise RenderError(f"--every must be at least 1, got {opt.every}")
     if opt.field not in ("none", "velocity"):
@@ -252,16 +253,6 @@ def _validate(opt: RenderOptions) -> tuple[int, int]:
     if not (16 <= w <= 8192 and 16 <= h <= 8192):
         raise RenderError(f"--size must be between 16 and 8192 pixels each, got {w} {h}")
     return w, h
-
-
-def _scene_planes(folder: Path, say) -> list:
-    scene_path = folder / "scene.toml"
-    if scene_path.is_file():
-        from ..scene import load_scene
-
-        return list(load_scene(scene_path).planes)
-    say(f"warning: {scene_path} not found; planes are not drawn")
-    return []
 
 
 class FrameRenderer:
@@ -364,9 +355,11 @@ class FrameRenderer:
             self._restore()
 
 
-def render_run(folder, options: RenderOptions | None = None, say=print) -> dict:
-    """Render the run in ``folder``; returns ``{"pngs": [...], "gif": path|None,
-    "mp4": path|None, "gif_writer": name|None}``."""
+def render_run(folder, options: RenderOptions | None = None, say=print,
+               planes=()) -> dict:
+    """Render the run in ``folder`` with the scene's ``planes`` (PlaneSpecs, drawn as
+    ground or half spaces); returns ``{"pngs": [...], "gif": path|None, "mp4":
+    path|None, "gif_writer": name|None}``."""
     opt = options or RenderOptions()
     _validate(opt)
     if opt.mp4:
@@ -381,8 +374,6 @@ def render_run(folder, options: RenderOptions | None = None, say=print) -> dict:
         raise RenderError(f"{run.folder}: no frames in the selected range "
                           f"(the run has steps {run.steps[0]}..{run.steps[-1]})")
     out_dir = Path(opt.output) if opt.output is not None else run.folder / "render"
-    out_dir.mkdir(parents=True, exist_ok=True)
-    planes = _scene_planes(run.folder, say)
 
     # Read every selected frame first: the camera and the colour scale cover the whole run.
     meshes = [_read_frame(run.paths[i]) for i in pick]
@@ -392,6 +383,10 @@ def render_run(folder, options: RenderOptions | None = None, say=print) -> dict:
         if len(m.points) != n:
             raise RenderError(f"{run.paths[i]}: {len(m.points)} vertices, the first frame "
                               f"has {n}")
+    try:  # only now that every frame has been read: a damaged run changes nothing
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise RenderError(f"cannot create {out_dir}: {exc.strerror or exc}") from None
     allpts = np.concatenate([m.points for m in meshes])
     finite = np.isfinite(allpts).all(axis=1)
     if not finite.any():
@@ -445,15 +440,16 @@ class LiveRenderer:
     The whole run is not known yet, so the camera frames the initial frame together with
     the origins of the scene's planes (a falling body stays in view down to the ground)."""
 
-    def __init__(self, folder, options: RenderOptions | None = None):
+    def __init__(self, folder, options: RenderOptions | None = None, planes=()):
         self.folder = Path(folder)
         self.options = options or RenderOptions()
+        self.planes = list(planes)
         self.out_dir = self.folder / "render"
         self._renderer = None
 
     def _start(self):
         first = _read_frame(self.folder / FRAMES_DIR / frame_file_name(0))
-        planes = _scene_planes(self.folder, lambda *a: None)
+        planes = self.planes
         pts = np.concatenate([first.points] + [np.asarray([p.origin], float) for p in planes])
         lo, hi = pts.min(axis=0), pts.max(axis=0)
         self.out_dir.mkdir(parents=True, exist_ok=True)

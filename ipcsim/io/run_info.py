@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import atomic_write_text
+from ..atomic import atomic_write_text
 
 __all__ = ["RUN_INFO_NAME", "RUN_KEYS", "environment_info", "now_iso", "write_run_info"]
 
@@ -35,6 +35,9 @@ RUN_KEYS: tuple[str, ...] = (
     "steps_planned",
     "steps_done",
     "newton_iterations",
+    "steps_hitting_iteration_cap",
+    "steps_not_converged",
+    "inputs_sha256",
     "modelled_terms",
     "linear_solver",
 )

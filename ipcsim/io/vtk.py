@@ -5,13 +5,15 @@ encodes the ``<Cells>`` section a single time; each frame then only encodes the
 positions and point data. Files are VTK XML UnstructuredGrid, binary (base64) with
 zlib-compressed blocks and 64-bit headers, which ParaView, VTK/pyvista and meshio read.
 
-Every file is written atomically (see :mod:`ipcsim.io.atomic`), and ``series.pvd`` is
+Every file is written atomically (see :mod:`ipcsim.atomic`), and ``series.pvd`` is
 rewritten after each frame, so a run that stops at any moment leaves a playable series.
 """
 
 from __future__ import annotations
 
 import base64
+import contextlib
+import io
 import os
 import sys
 import zlib
@@ -21,14 +23,17 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from .atomic import atomic_write_bytes, atomic_write_text
+from ..atomic import atomic_write_bytes, atomic_write_text
+from ..errors import IpcsimError, excerpt, one_line
 
 __all__ = [
     "FRAMES_DIR",
     "SERIES_NAME",
+    "FrameError",
     "FrameWriter",
     "frame_file_name",
     "frame_interval",
+    "read_frame",
     "read_series",
 ]
 
@@ -290,13 +295,57 @@ class FrameWriter:
         atomic_write_text(self.series_path, "".join(lines), fsync=self.fsync)
 
 
+class FrameError(IpcsimError):
+    """A frame or series file that cannot be read (damaged, truncated, not VTK)."""
+
+
 def read_series(pvd_path: str | os.PathLike) -> list[tuple[float, Path]]:
     """``(time, vtu path)`` for every data set of a ``.pvd`` file, in file order.
 
-    Paths are resolved relative to the ``.pvd`` file's folder."""
+    Paths are resolved relative to the ``.pvd`` file's folder. A file that is not a
+    readable series is a :class:`FrameError`."""
     pvd_path = Path(pvd_path)
-    root = ElementTree.parse(pvd_path).getroot()
-    return [
-        (float(ds.get("timestep", "0")), pvd_path.parent / ds.get("file"))
-        for ds in root.iter("DataSet")
-    ]
+    try:
+        root = ElementTree.parse(pvd_path).getroot()
+        series = []
+        for ds in root.iter("DataSet"):
+            name = ds.get("file")
+            if not name:
+                raise ValueError("a DataSet without a file")
+            series.append((float(ds.get("timestep", "0")), pvd_path.parent / name))
+    except (OSError, ValueError, ElementTree.ParseError) as exc:
+        raise FrameError(f"{pvd_path}: not a readable series "
+                         f"({one_line(exc, 120) or type(exc).__name__})") from None
+    return series
+
+
+def read_frame(path: str | os.PathLike):
+    """One ``.vtu`` frame as a ``meshio.Mesh``. meshio's per-format reader is called
+    directly: ``meshio.read`` prints and calls ``sys.exit`` on a damaged file. Every
+    failure is a :class:`FrameError` naming the file."""
+    import meshio
+
+    path = Path(path)
+    if not path.is_file():
+        raise FrameError(f"{path}: frame not found" if not path.exists()
+                         else f"{path}: not a regular file")
+    try:
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            mesh = meshio.vtu.read(str(path))
+    except (Exception, SystemExit) as exc:  # ReadError, ValueError, zlib.error, ...
+        why = one_line(exc, 120) or "damaged or truncated"
+        raise FrameError(f"{path}: cannot read frame ({why})") from None
+    n = len(mesh.points)
+    if np.ndim(mesh.points) != 2 or np.shape(mesh.points)[1] != 3:
+        raise FrameError(f"{path}: a frame needs 3-D points, got shape "
+                         f"{np.shape(mesh.points)}")
+    for block in mesh.cells:
+        data = np.asarray(block.data)
+        if data.size and (data.min() < 0 or data.max() >= n):
+            raise FrameError(f"{path}: its {block.type} cells name vertices outside "
+                             f"0..{n - 1}")
+    for name, values in mesh.point_data.items():
+        if len(values) != n:
+            raise FrameError(f"{path}: point data {excerpt(name)} has {len(values)} "
+                             f"entries for {n} vertices")
+    return mesh

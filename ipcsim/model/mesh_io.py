@@ -25,13 +25,25 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import MeshError
-from .surface import tet_signed_volumes, unique_edges, unique_undirected
+from ..errors import MeshError, excerpt, one_line
+from .mesh_check import (
+    check_gmsh_tags,
+    check_indices,
+    check_points,
+    check_segments,
+    check_tet_mesh,
+    check_triangles,
+)
+from .surface import unique_edges, unique_undirected
+
+__all__ = ["check_triangles", "read_frame_positions", "read_obj", "read_pt", "read_seg",
+           "read_shape", "read_status", "read_tet_mesh", "read_tetgen"]
 
 # `v x y z` and `s i j` records of OBJ-like text files (one match per line, in C via re)
 _V_RE = re.compile(r"^[ \t]*v[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)", re.M)
 _S_RE = re.compile(r"^[ \t]*s[ \t]+(\S+)[ \t]+(\S+)", re.M)
 _F_RE = re.compile(r"^[ \t]*f[ \t]+([^\n#]*)", re.M)
+_RELATIVE_FACE_RE = re.compile(r"^[ \t]*f[ \t][^\n#]*?(?<!\S)-\d", re.M)
 
 
 def _err(path, line, message: str) -> MeshError:
@@ -56,14 +68,15 @@ def _meshio_read(path: Path, line, file_format: str):
     import meshio
 
     if not Path(path).is_file():
-        raise _err(path, line, "mesh file not found")
+        raise _err(path, line, "is not a regular file" if Path(path).exists()
+                   else "mesh file not found")
     readers = {"gmsh": meshio.gmsh.read, "vtk": meshio.vtk.read, "vtu": meshio.vtu.read,
                "obj": meshio.obj.read}
     try:
         with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
             return readers[file_format](str(path))
     except (Exception, SystemExit) as exc:  # ReadError, ValueError, IndexError, ...
-        msg = str(exc).strip() or type(exc).__name__
+        msg = one_line(str(exc).strip() or type(exc).__name__, 160)
         raise _err(path, line, f"cannot read mesh ({msg})") from None
 
 
@@ -84,59 +97,6 @@ def _to_int_array(tokens, path, line, what: str) -> np.ndarray:
     return arr.astype(np.int64)
 
 
-# ----------------------------------------------------------------------------- validation
-
-
-def check_points(points: np.ndarray, path, line) -> np.ndarray:
-    """(n, 3) float64 with finite coordinates, else MeshError."""
-    p = np.asarray(points, dtype=np.float64)
-    if p.ndim != 2 or p.shape[1] not in (2, 3):
-        raise _err(path, line, f"expected 3-D vertex coordinates, got shape {p.shape}")
-    if p.shape[1] == 2:  # planar file: z = 0
-        p = np.concatenate([p, np.zeros((len(p), 1))], axis=1)
-    bad = ~np.all(np.isfinite(p), axis=1)
-    if bad.any():
-        i = int(np.flatnonzero(bad)[0])
-        raise _err(path, line, f"{int(bad.sum())} vertices have NaN/inf coordinates "
-                               f"(first: vertex {i + 1})")
-    return np.ascontiguousarray(p)
-
-
-def check_indices(cells: np.ndarray, n_points: int, path, line, what: str) -> np.ndarray:
-    """Connectivity with every index in [0, n_points), else MeshError (reported 1-based);
-    ``what`` names one cell ('tet', 'triangle', 'segment')."""
-    c = np.asarray(cells, dtype=np.int64)
-    if c.size and (c.min() < 0 or c.max() >= n_points):
-        bad = np.flatnonzero(np.any((c < 0) | (c >= n_points), axis=1))
-        raise _err(path, line, f"{len(bad)} {what}s reference vertices outside 1..{n_points} "
-                               f"(first: {what} {bad[0] + 1})")
-    return c
-
-
-def check_tets(points: np.ndarray, tets: np.ndarray, path, line) -> None:
-    """Every tet positively oriented with non-negligible volume, else MeshError.
-
-    Degenerate: 6|V| <= 1e-12 * (longest edge)^3 (repeated vertices, flat slivers);
-    inverted: det[x1 - x0, x2 - x0, x3 - x0] < 0.
-    """
-    if len(tets) == 0:
-        return
-    vol6 = 6.0 * tet_signed_volumes(points, tets)
-    x = points[tets]  # (m, 4, 3)
-    pairs = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
-    longest = np.linalg.norm(x[:, pairs[:, 0]] - x[:, pairs[:, 1]], axis=2).max(axis=1)
-    degenerate = np.abs(vol6) <= 1e-12 * longest**3
-    inverted = (vol6 < 0) & ~degenerate
-    if degenerate.any():
-        i = int(np.flatnonzero(degenerate)[0])
-        raise _err(path, line, f"{int(degenerate.sum())} tetrahedra have zero volume "
-                               f"(first: tet {i + 1}, vertices {(tets[i] + 1).tolist()})")
-    if inverted.any():
-        i = int(np.flatnonzero(inverted)[0])
-        raise _err(path, line, f"{int(inverted.sum())} tetrahedra are inverted (negative volume; "
-                               f"first: tet {i + 1}, vertices {(tets[i] + 1).tolist()})")
-
-
 def _drop_unreferenced(points: np.ndarray, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Remove vertices no cell uses (e.g. Gmsh geometry points) and renumber the cells."""
     used = np.zeros(len(points), dtype=bool)
@@ -154,8 +114,9 @@ def read_tet_mesh(path, line: int | None = None) -> tuple[np.ndarray, np.ndarray
     """Read a tetrahedral mesh: (points (n, 3) float64, tets (m, 4) int64, 0-based).
 
     Vertices used by no tet are dropped (and the tets renumbered). Raises MeshError for an
-    unreadable file, a file without linear tets, NaN/inf coordinates, out-of-range indices,
-    zero-volume or inverted tets.
+    unreadable file, a file without linear tets, and everything ``mesh_check`` refuses:
+    NaN/inf or huge coordinates, indices (Gmsh node tags) that name no vertex, zero-volume,
+    inverted or duplicate tets, overlapping tets, no closed boundary.
     """
     path = Path(path)
     suffix = path.suffix.lower()
@@ -166,6 +127,8 @@ def read_tet_mesh(path, line: int | None = None) -> tuple[np.ndarray, np.ndarray
         if fmt is None:
             raise _err(path, line, f"unsupported tet mesh format '{suffix}' "
                                    "(use .msh, .vtk, .vtu or TetGen .node/.ele)")
+        if fmt == "gmsh":
+            check_gmsh_tags(path, line)  # before meshio maps a bad tag onto another node
         mesh = _meshio_read(path, line, fmt)
         blocks = [c.data for c in mesh.cells if c.type == "tetra"]
         if not blocks:
@@ -182,7 +145,7 @@ def read_tet_mesh(path, line: int | None = None) -> tuple[np.ndarray, np.ndarray
         tets = check_indices(np.concatenate(blocks).astype(np.int64), len(points), path, line,
                              "tet")
     points, tets = _drop_unreferenced(points, tets)
-    check_tets(points, tets, path, line)
+    check_tet_mesh(points, tets, path, line)
     return points, np.ascontiguousarray(tets, dtype=np.int64)
 
 
@@ -208,6 +171,8 @@ def read_tetgen(path, line: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     tok = _tokens(node_path, line)
     try:
         n, dim, n_attr, n_mark = (int(t) for t in tok[:4])
+        if min(n, n_attr, n_mark) < 0:
+            raise ValueError
     except ValueError:
         raise _err(node_path, line, "bad .node header (expected 'N 3 attrs markers')") from None
     if dim != 3:
@@ -223,6 +188,8 @@ def read_tetgen(path, line: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     tok = _tokens(ele_path, line)
     try:
         m, per, n_attr = (int(t) for t in tok[:3])
+        if min(m, n_attr) < 0:
+            raise ValueError
     except ValueError:
         raise _err(ele_path, line, "bad .ele header (expected 'M 4 attrs')") from None
     if per != 4:
@@ -239,19 +206,27 @@ def read_tetgen(path, line: int | None = None) -> tuple[np.ndarray, np.ndarray]:
 # ----------------------------------------------------------------------------- surfaces
 
 
-def _parse_obj_minimal(path: Path, line) -> tuple[np.ndarray, np.ndarray]:
-    """Fallback OBJ parser: ``v`` lines and ``f`` lines (``a/b/c`` keeps ``a``; negative
-    indices count from the end). Non-triangle faces raise MeshError."""
-    text = _read_text(path, line)
+def _parse_obj(text: str, path: Path, line) -> tuple[np.ndarray, np.ndarray]:
+    """OBJ ``v`` and ``f`` lines (``a/b/c`` keeps ``a``), for files meshio rejects (e.g.
+    normal-count mismatches) or misreads (relative indices: ``f -3 -2 -1`` names the last
+    three vertices defined *before* that line). Non-triangle faces raise MeshError."""
     verts = _to_float_array(_V_RE.findall(text), path, line, "vertex coordinate").reshape(-1, 3)
-    faces = [re.sub(r"/\S*", "", f).split() for f in _F_RE.findall(text)]  # drop /vt/vn
+    faces, defined = [], []
+    count, last = 0, 0
+    for m in _F_RE.finditer(text):
+        count += len(_V_RE.findall(text, last, m.start()))  # vertices defined so far
+        last = m.start()
+        faces.append(re.sub(r"/\S*", "", m.group(1)).split())  # drop /vt/vn
+        defined.append(count)
     sizes = np.fromiter(map(len, faces), dtype=np.int64, count=len(faces))
     if np.any(sizes != 3):
         raise _err(path, line, f"{int((sizes != 3).sum())} faces are not triangles "
                                "(only triangle meshes are supported)")
-    idx = _to_int_array(faces, path, line, "face index").reshape(-1, 3)
-    idx = np.where(idx < 0, len(verts) + idx, idx - 1)  # OBJ: 1-based, negative = relative
-    return verts, idx
+    raw = _to_int_array(faces, path, line, "face index").reshape(-1, 3)
+    if np.any(raw == 0):
+        raise _err(path, line, "face index 0: OBJ indices start at 1 (or count back from -1)")
+    before = np.asarray(defined, dtype=np.int64)[:, None]
+    return verts, np.where(raw < 0, before + raw, raw - 1)  # 1-based; negative: relative
 
 
 def read_obj(path, line: int | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -260,35 +235,26 @@ def read_obj(path, line: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     Faces that are not triangles are a MeshError (as in the original, which reads OBJs
     with libigl and exits on mixed polygon sizes)."""
     path = Path(path)
-    try:
-        mesh = _meshio_read(path, line, "obj")
-    except MeshError:
-        if not path.is_file():
-            raise
-        points, triangles = _parse_obj_minimal(path, line)  # e.g. normal-count mismatch
+    text = _read_text(path, line)
+    if _RELATIVE_FACE_RE.search(text):  # meshio does not know relative indices
+        points, triangles = _parse_obj(text, path, line)
     else:
-        other = sorted({c.type for c in mesh.cells} - {"triangle"})
-        if other:
-            raise _err(path, line, f"faces that are not triangles ({', '.join(other)}); "
-                                   "only triangle meshes are supported")
-        points = np.asarray(mesh.points, dtype=np.float64)
-        tris = [c.data for c in mesh.cells]
-        triangles = np.concatenate(tris).astype(np.int64) if tris else np.zeros((0, 3), np.int64)
+        try:
+            mesh = _meshio_read(path, line, "obj")
+        except MeshError:
+            points, triangles = _parse_obj(text, path, line)  # e.g. normal-count mismatch
+        else:
+            other = sorted({c.type for c in mesh.cells} - {"triangle"})
+            if other:
+                raise _err(path, line, f"faces that are not triangles ({', '.join(other)}); "
+                                       "only triangle meshes are supported")
+            points = np.asarray(mesh.points, dtype=np.float64)
+            tris = [c.data for c in mesh.cells]
+            triangles = (np.concatenate(tris).astype(np.int64) if tris
+                         else np.zeros((0, 3), np.int64))
     points = check_points(points, path, line)
     triangles = check_indices(triangles.reshape(-1, 3), len(points), path, line, "triangle")
     return points, triangles
-
-
-def check_triangles(points: np.ndarray, triangles: np.ndarray, path, line) -> None:
-    """A usable triangle surface: at least one triangle, no repeated vertex in a face."""
-    if len(triangles) == 0:
-        raise _err(path, line, "no triangles in surface mesh")
-    t = np.sort(triangles, axis=1)
-    rep = (t[:, 0] == t[:, 1]) | (t[:, 1] == t[:, 2])
-    if rep.any():
-        i = int(np.flatnonzero(rep)[0])
-        raise _err(path, line, f"{int(rep.sum())} degenerate triangles with a repeated vertex "
-                               f"(first: face {i + 1})")
 
 
 def read_seg(path, line: int | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -317,11 +283,7 @@ def read_seg(path, line: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     edges = check_indices(edges, len(points), path, line, "segment")
     if len(points) == 0:
         raise _err(path, line, "no vertices in segment mesh")
-    if len(edges) == 0:
-        raise _err(path, line, "no segments ('s i j' lines) in segment mesh")
-    if np.any(edges[:, 0] == edges[:, 1]):
-        i = int(np.flatnonzero(edges[:, 0] == edges[:, 1])[0])
-        raise _err(path, line, f"degenerate segment {i + 1} joins a vertex to itself")
+    check_segments(edges, path, line)
     return points, edges
 
 
@@ -400,7 +362,11 @@ def read_status(path, line: int | None = None) -> tuple[int, np.ndarray, np.ndar
             raise _err(path, line, f"restart file has no '{word}' block") from None
 
     try:
-        step = int(float(tokens[find("timestep") + 1]))
+        written = float(tokens[find("timestep") + 1])
+        if not (0 <= written <= 10**8 and written == int(written)):  # also inf and nan
+            raise _err(path, line, f"restart file timestep {excerpt(tokens[find('timestep') + 1])}"
+                                   " is not a step number (a whole number 0..1e8)")
+        step = int(written)
         i = find("position")
         n_v, dim = int(tokens[i + 1]), int(tokens[i + 2])
         if dim != 3 or n_v < 0:
@@ -414,5 +380,6 @@ def read_status(path, line: int | None = None) -> tuple[int, np.ndarray, np.ndar
     if positions.size != 3 * n_v or n_vel != 3 * n_v or velocities.size != n_vel:
         raise _err(path, line, "truncated restart (status) file")
     positions = check_points(positions.reshape(n_v, 3), path, line)
-    velocities = check_points(velocities.reshape(n_v, 3), path, line)
+    velocities = check_points(velocities.reshape(n_v, 3), path, line, bound=None,
+                              what="velocities")
     return step, positions, velocities

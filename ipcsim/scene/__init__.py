@@ -7,10 +7,12 @@ as ``path:line: what is wrong``; warnings are collected in ``SceneSpec.warnings`
 
 from __future__ import annotations
 
+import os
+import stat
 from pathlib import Path
 
-from ..errors import SceneError
-from ..io.atomic import atomic_write_text
+from ..errors import OutputError, SceneError
+from ..atomic import atomic_write_text
 from .spec import (
     DirichletSpec,
     InitialVelocitySpec,
@@ -29,7 +31,9 @@ __all__ = [
     "load_scene",
     "save_scene",
     "read_scene_text",
+    "scene_text",
     "scene_format",
+    "MAX_SCENE_BYTES",
     "parse_txt",
     "parse_toml",
     "format_txt",
@@ -46,6 +50,9 @@ __all__ = [
 ]
 
 TEXT_EXTENSIONS = (".txt", ".ipc")
+# Scene files are written by hand or by small scripts: a few KB. Anything beyond this is a
+# mistake (a mesh or a log named as the scene), refused before it is parsed.
+MAX_SCENE_BYTES = 1 << 20
 TOML_EXTENSIONS = (".toml",)
 
 
@@ -61,21 +68,48 @@ def scene_format(path) -> str:
 
 
 def read_scene_text(path) -> str:
-    """The file's text (UTF-8, a BOM allowed); a SceneError when it cannot be read."""
+    """The file's text (UTF-8, a BOM allowed); a SceneError when it cannot be read, is not
+    a regular file, is larger than :data:`MAX_SCENE_BYTES` or is not text."""
     try:
-        data = Path(path).read_bytes()
+        info = os.stat(path)
+        if stat.S_ISDIR(info.st_mode):
+            raise SceneError(path, None, "is a folder, not a scene file")
+        if not stat.S_ISREG(info.st_mode):
+            raise SceneError(path, None, "is not a regular file (a device, a pipe or a "
+                                         "socket), so it cannot be a scene file")
+        _check_size(path, info.st_size)
+        with open(path, "rb") as f:
+            data = f.read(MAX_SCENE_BYTES + 1)
     except FileNotFoundError:
         raise SceneError(path, None, "scene file not found") from None
-    except IsADirectoryError:
-        raise SceneError(path, None, "is a folder, not a scene file") from None
     except OSError as exc:
         raise SceneError(path, None, f"cannot read scene file ({exc.strerror or exc})") from None
+    _check_size(path, len(data))
+    return scene_text(data, path)
+
+
+def scene_text(data: bytes, path) -> str:
+    """The text of a scene file's bytes: UTF-8 (a BOM allowed) without NUL bytes, else a
+    SceneError at the line of the first bad byte."""
     try:
-        return data.decode("utf-8-sig")
+        text = data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         line = data[: exc.start].count(b"\n") + 1
         raise SceneError(path, line, "not UTF-8 text (byte "
                                      f"0x{data[exc.start]:02x})") from None
+    nul = text.find("\0")
+    if nul >= 0:
+        raise SceneError(path, text.count("\n", 0, nul) + 1,
+                         "holds a NUL byte: a binary file, not a scene")
+    return text
+
+
+def _check_size(path, size: int) -> None:
+    if size > MAX_SCENE_BYTES:
+        raise SceneError(path, None, f"is {size / 2**20:.3g} MiB; ipcsim reads scene files of "
+                                     f"at most {MAX_SCENE_BYTES // 2**20} MiB (a hand-written "
+                                     "scene is a few KB; `shapeMatrix` or a [[shapes]] matrix "
+                                     "makes many copies of a shape)")
 
 
 def load_scene(path) -> SceneSpec:
@@ -97,5 +131,5 @@ def save_scene(spec: SceneSpec, path) -> Path:
     try:
         atomic_write_text(path, text)
     except OSError as exc:
-        raise SceneError(path, None, f"cannot write ({exc.strerror or exc})") from None
+        raise OutputError(f"{path}: cannot write ({exc.strerror or exc})") from None
     return path

@@ -21,10 +21,13 @@ import os
 from collections.abc import Callable
 from pathlib import Path
 
+from ..errors import excerpt
+
 __all__ = [
     "absolute",
     "search_folders",
     "resolve",
+    "candidates",
     "is_file",
     "is_dir",
     "is_tetgen",
@@ -52,19 +55,24 @@ def search_folders(scene_path: str | os.PathLike | None) -> list[Path]:
 
 
 def is_file(path: Path) -> bool:
-    return path.is_file()
+    try:
+        return path.is_file()
+    except (OSError, ValueError):  # a name too long for the file system, a NUL in it
+        return False
 
 
 def is_dir(path: Path) -> bool:
-    return path.is_dir()
+    try:
+        return path.is_dir()
+    except (OSError, ValueError):
+        return False
 
 
 def is_tetgen(path: Path) -> bool:
     """A TetGen mesh named as ``base`` or ``base.ele``: needs ``base.node`` and ``base.ele``."""
     base = path.with_suffix("") if path.suffix.lower() == ".ele" else path
-    return (base.parent / (base.name + ".node")).is_file() and (
-        base.parent / (base.name + ".ele")
-    ).is_file()
+    return is_file(base.parent / (base.name + ".node")) and is_file(
+        base.parent / (base.name + ".ele"))
 
 
 def resolve(
@@ -73,25 +81,49 @@ def resolve(
     exists: Callable[[Path], bool] = is_file,
 ) -> Path | None:
     """The first existing candidate for ``written`` (absolute, normalised), or None."""
-    if not written:
-        return None
-    p = Path(written)
-    if p.is_absolute():
-        cand = absolute(p)
-        return cand if exists(cand) else None
-    for folder in search_folders(scene_path):
-        cand = Path(os.path.normpath(folder / p))
+    for cand in candidates(written, scene_path):
         if exists(cand):
             return cand
     return None
 
 
-def not_found_message(what: str, written: str, scene_path) -> str:
+def candidates(written: str, scene_path) -> list[Path]:
+    """Where ``written`` is looked for, in order (absolute, normalised)."""
+    if not written or "\0" in written:
+        return []
+    p = Path(written)
+    if p.is_absolute():
+        return [absolute(p)]
+    return [Path(os.path.normpath(folder / p)) for folder in search_folders(scene_path)]
+
+
+def _kind_of(path: Path) -> str | None:
+    """'a folder', 'a file' or 'not a regular file' for something that exists, else None."""
+    try:
+        if path.is_dir():
+            return "a folder"
+        if path.is_file():
+            return "a file"
+        return "not a regular file" if path.exists() else None
+    except (OSError, ValueError):  # a name too long for the file system, say
+        return None
+
+
+def not_found_message(what: str, written: str, scene_path, exists=is_file) -> str:
+    """Why ``written`` was not found: it exists with the wrong kind (a folder where a file
+    belongs, a device), or it exists nowhere."""
+    if exists in (is_file, is_dir):
+        for cand in candidates(written, scene_path):
+            kind = _kind_of(cand)
+            if kind is not None and not exists(cand):
+                want = "a folder" if exists is is_dir else "a file"
+                found = f"is {kind}" if kind != "not a regular file" else "is not a regular file"
+                return f"{what} '{excerpt(written, 80)}' {found}, not {want} ({cand})"
     if Path(written).is_absolute():
-        return f"{what} '{written}' does not exist"
+        return f"{what} '{excerpt(written, 80)}' does not exist"
     where = "the scene's folder, its parent folders" if scene_path is not None else ""
     where = f"{where} or the current directory" if where else "the current directory"
-    return f"{what} '{written}' not found (looked relative to {where})"
+    return f"{what} '{excerpt(written, 80)}' not found (looked relative to {where})"
 
 
 def relative_for_writing(target: Path, folder: Path) -> str:

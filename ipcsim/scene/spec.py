@@ -13,6 +13,7 @@ written); two scenes that mean the same simulation compare equal.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -192,11 +193,22 @@ class SceneSpec:
     source: Path | None = field(default=None, compare=False)
     warnings: tuple[str, ...] = field(default=(), compare=False)
     ignored: tuple[str, ...] = field(default=(), compare=False)  # viewer-only keys seen
+    # where each value was written: TOML key path (``solver.linear_solver``) -> line
+    key_lines: Mapping[str, int] = field(default_factory=dict, compare=False, repr=False)
 
     @property
     def n_steps(self) -> int:
         """ceil(duration / dt), guarded against round-off (5 / 0.025 is 200, not 201)."""
         return max(1, math.ceil(self.duration / self.dt - 1e-9))
+
+    def line_of(self, key: str) -> int | None:
+        """The line that wrote ``key`` (or the nearest enclosing key), None if unknown."""
+        while key:
+            if key in self.key_lines:
+                return self.key_lines[key]
+            cut = max(key.rfind("."), key.rfind("["))
+            key = key[:cut] if cut > 0 else ""
+        return None
 
     def newton_tol_at(self, step: int) -> float:
         """Per-step tolerance list: step i uses entry i, later steps the last entry."""

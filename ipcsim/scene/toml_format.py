@@ -34,7 +34,7 @@ from pathlib import Path
 
 import tomli_w
 
-from ..errors import SceneError
+from ..errors import SceneError, excerpt as _q
 from . import paths
 from .spec import (
     CONTACT_FORMULATIONS,
@@ -126,9 +126,9 @@ def _type_name(v) -> str:
     if isinstance(v, bool):
         return f"a boolean ({str(v).lower()})"
     if isinstance(v, (int, float)):
-        return f"a number ({v!r})"
+        return f"a number ({_q(repr(v))})"
     if isinstance(v, str):
-        return f"a string ({v!r})"
+        return f"a string ('{_q(v)}')"
     if isinstance(v, list):
         return f"an array of {len(v)}"
     if isinstance(v, dict):
@@ -167,7 +167,7 @@ class _Reader:
         for k in data:
             if k not in allowed:
                 full = f"{key}.{k}" if key else k
-                self.fail(full, f"unknown key {full}{suggest(k, allowed)}")
+                self.fail(full, f"unknown key {_q(full, 80)}{suggest(k, allowed)}")
         for k in required:
             if k not in data:
                 self.fail(key, f"{key} is missing the required key '{k}'")
@@ -220,7 +220,7 @@ class _Reader:
         s = self.string(v, key)
         if s not in options:
             self.fail(key, f"{key} must be one of {', '.join(map(repr, options))}, got "
-                           f"{s!r}{suggest(s, options)}")
+                           f"'{_q(s)}'{suggest(s, options)}")
         return s
 
     def path(self, v, key: str, what: str, exists=paths.is_file) -> Path:
@@ -228,7 +228,7 @@ class _Reader:
         found = paths.resolve(written, self.scene_path, exists)
         if found is None:
             self.fail(key, f"{key}: " + paths.not_found_message(what, written,
-                                                                  self.scene_path))
+                                                                  self.scene_path, exists))
         return found
 
     # the document -------------------------------------------------------------------------
@@ -236,6 +236,9 @@ class _Reader:
     def parse(self) -> SceneSpec:
         try:
             doc = tomllib.loads(self.text)
+        except RecursionError:
+            raise SceneError(self.source, None, "invalid TOML: arrays or tables nested too "
+                                                "deeply") from None
         except tomllib.TOMLDecodeError as exc:
             msg = str(exc)
             m = re.search(r"\(at line (\d+), column (\d+)\)", msg)
@@ -244,6 +247,8 @@ class _Reader:
                 line = self.text.count("\n") + 1
             msg = re.sub(r"\s*\(at (line \d+, column \d+|end of document)\)", "", msg)
             raise SceneError(self.source, line, f"invalid TOML: {msg}") from None
+        except ValueError as exc:  # an integer of thousands of digits
+            raise SceneError(self.source, None, f"invalid TOML: {_q(exc, 80)}") from None
         self.lines = locate_keys(self.text)
         self.table(doc, "", _TOP)
         v: dict = {}
@@ -268,7 +273,8 @@ class _Reader:
             **v,
         )
         more = validate_scene(spec, source=self.source, lines=self.lines, fmt="toml")
-        return dataclasses.replace(spec, warnings=tuple(self.warnings) + more)
+        return dataclasses.replace(spec, warnings=tuple(self.warnings) + more,
+                                   key_lines=dict(self.lines))
 
     def value(self, v, key: str, kind: str):
         if kind == "float":
@@ -291,7 +297,7 @@ class _Reader:
             if v == "adaptive":
                 return None
             if isinstance(v, str):
-                self.fail(key, f"{key} must be a number or \"adaptive\", got {v!r}")
+                self.fail(key, f"{key} must be a number or \"adaptive\", got '{_q(v)}'")
             return self.number(v, key)
         if kind == "energy":
             return self.choice(v, key, ("NH", "FCR"))
@@ -302,7 +308,7 @@ class _Reader:
         if kind == "solver":
             s = self.string(v, key)
             if s in UNSUPPORTED_SOLVERS:
-                self.fail(key, f"{key}: constraint solver {s!r} is not implemented by ipcsim; "
+                self.fail(key, f"{key}: constraint solver '{_q(s)}' is not implemented by ipcsim; "
                                "use \"interiorPoint\"")
             return SOLVER_NAMES[self.choice(v, key, tuple(SOLVER_NAMES))]
         if kind == "linear_solver":
@@ -311,7 +317,7 @@ class _Reader:
                 return None
             if s.lower() not in LINEAR_SOLVERS:
                 self.fail(key, f"{key} must be \"auto\" or one of "
-                               f"{', '.join(LINEAR_SOLVERS)}, got {s!r}"
+                               f"{', '.join(LINEAR_SOLVERS)}, got '{_q(s)}'"
                                f"{suggest(s, (*LINEAR_SOLVERS, 'auto'))}")
             return s.lower()
         if kind == "restart":
@@ -333,7 +339,7 @@ class _Reader:
         written = self.string(t["path"], f"{key}.path")
         suffix = Path(written).suffix.lower()
         if suffix not in MESH_KINDS:
-            self.fail(f"{key}.path", f"{key}.path: unknown mesh file extension {suffix!r} "
+            self.fail(f"{key}.path", f"{key}.path: unknown mesh file extension '{_q(suffix)}' "
                                      "(tetrahedra: .msh, .vtk, .vtu, .ele or none; surface: "
                                      ".obj; segments: .seg; points: .pt)")
         exists = paths.is_tetgen if suffix in ("", ".ele") else paths.is_file
@@ -344,11 +350,11 @@ class _Reader:
             found = paths.resolve(obj, self.scene_path)
             if found is not None:
                 mesh_kind = MESH_KINDS[suffix]
-                self.warn(f"{key}.path", f"'{written}' does not exist; using "
-                                         f"'{obj}' instead (as the original does)")
+                self.warn(f"{key}.path", f"'{_q(written)}' does not exist; using "
+                                         f"'{_q(obj)}' instead (as the original does)")
         if found is None:
             self.fail(f"{key}.path", f"{key}.path: " + paths.not_found_message(
-                "mesh file", written, self.scene_path))
+                "mesh file", written, self.scene_path, exists))
         if "kind" in t:
             kind = self.choice(t["kind"], f"{key}.kind", ("tet", "surface", "segments",
                                                           "points"))
@@ -357,7 +363,7 @@ class _Reader:
             if kind != file_kind and not (file_kind == "surface"
                                           and kind in ("segments", "points")):
                 self.fail(f"{key}.kind", f"{key}.kind {kind!r} does not fit the "
-                                         f"{file_kind} mesh '{written}' (only an .obj may be "
+                                         f"{file_kind} mesh '{_q(written)}' (only an .obj may be "
                                          "read as \"segments\" or \"points\")")
             mesh_kind = None if kind == file_kind else kind
         return found, mesh_kind, written
@@ -407,7 +413,7 @@ class _Reader:
         bad = sorted(set(t) - {"path", "kind", "translation", "rotation_deg", "scale",
                                "material", "matrix"})
         if bad:
-            self.fail(f"{key}.{bad[0]}", f"{key}.{bad[0]}: a shape with `matrix` takes only "
+            self.fail(f"{key}.{bad[0]}", f"{key}.{_q(bad[0])}: a shape with `matrix` takes only "
                                          "path, kind, translation, rotation_deg, scale and "
                                          "material (its copies carry no velocities or boundary "
                                          "conditions)")
@@ -466,7 +472,7 @@ class _Reader:
         written = self.string(t["path"], f"{key}.path")
         if Path(written).suffix.lower() != ".obj":
             self.fail(f"{key}.path", f"{key}.path must name an .obj triangle mesh, got "
-                                     f"{written!r}")
+                                     f"'{_q(written)}'")
         return MeshObstacleSpec(
             self.path(written, f"{key}.path", "mesh file"),
             self.vec3(t["position"], f"{key}.position"),
@@ -553,14 +559,38 @@ def _v3(v) -> list[float]:
     return [float(x) for x in v]
 
 
-def scene_to_dict(spec: SceneSpec, folder: Path) -> dict:
+def scene_to_dict(spec: SceneSpec, folder: Path, name_path=None) -> dict:
     """The fully resolved scene as TOML data, every default written out; paths relative
-    to ``folder`` (where the file will live) when possible."""
+    to ``folder`` (where the file will live) when possible. ``name_path(path) -> str``,
+    when given, writes the paths instead (the input digest names files by content)."""
     s = spec
+    rel = name_path or (lambda p: paths.relative_for_writing(p, folder))
+    doc: dict = {
+        "scene": _scene_table(s, rel),
+        "time": {"duration": float(s.duration), "dt": float(s.dt)},
+        "material": {"density": float(s.density), "youngs_modulus": float(s.youngs_modulus),
+                     "poisson_ratio": float(s.poisson_ratio), "energy": s.energy},
+        "integrator": {"type": s.integrator, "newmark_beta": float(s.newmark_beta),
+                       "newmark_gamma": float(s.newmark_gamma),
+                       "damping_stiff": float(s.damping_stiff),
+                       "damping_ratio": float(s.damping_ratio),
+                       "warm_start": int(s.warm_start)},
+        "contact": _contact_table(s),
+        "solver": {"newton_tol": [float(x) for x in s.newton_tol],
+                   "constraint_solver": s.constraint_solver,
+                   "linear_solver": s.linear_solver or "auto"},
+        "output": {"append_str": s.append_str, "playback_speed": float(s.playback_speed)},
+    }
+    doc["shapes"] = [_shape_table(sh, rel) for sh in s.shapes]
+    doc["planes"] = [_plane_table(p) for p in s.planes]
+    doc["mesh_obstacles"] = [
+        {"path": rel(m.mesh_path), "position": _v3(m.position), "size": float(m.size),
+         "stiffness": float(m.stiffness), "friction": float(m.friction),
+         "rotation_deg": _v3(m.rotation_deg)} for m in s.mesh_obstacles]
+    return doc
 
-    def rel(p: Path) -> str:
-        return paths.relative_for_writing(p, folder)
 
+def _scene_table(s: SceneSpec, rel) -> dict:
     scene = {
         "gravity": s.gravity,
         "script": s.script,
@@ -574,6 +604,10 @@ def scene_to_dict(spec: SceneSpec, folder: Path) -> dict:
         scene["restart"] = rel(s.restart)
     scene["dbc_time_range"] = _v3(s.dbc_time_range)
     scene["nbc_time_range"] = _v3(s.nbc_time_range)
+    return scene
+
+
+def _contact_table(s: SceneSpec) -> dict:
     contact = {
         "self_collision": s.self_collision,
         "self_friction": float(s.self_friction),
@@ -591,73 +625,50 @@ def scene_to_dict(spec: SceneSpec, folder: Path) -> dict:
         "dtol": float(s.dtol),
         "friction_iterations": int(s.friction_iterations),
         "use_abs_parameters": s.use_abs_parameters,
+        "formulation": s.contact_formulation,
+        "penalty_stiffness": float(s.penalty_stiffness),
     })
-    contact["formulation"] = s.contact_formulation
-    contact["penalty_stiffness"] = float(s.penalty_stiffness)
-    doc: dict = {
-        "scene": scene,
-        "time": {"duration": float(s.duration), "dt": float(s.dt)},
-        "material": {"density": float(s.density), "youngs_modulus": float(s.youngs_modulus),
-                     "poisson_ratio": float(s.poisson_ratio), "energy": s.energy},
-        "integrator": {"type": s.integrator, "newmark_beta": float(s.newmark_beta),
-                       "newmark_gamma": float(s.newmark_gamma),
-                       "damping_stiff": float(s.damping_stiff),
-                       "damping_ratio": float(s.damping_ratio),
-                       "warm_start": int(s.warm_start)},
-        "contact": contact,
-        "solver": {"newton_tol": [float(x) for x in s.newton_tol],
-                   "constraint_solver": s.constraint_solver,
-                   "linear_solver": s.linear_solver or "auto"},
-        "output": {"append_str": s.append_str, "playback_speed": float(s.playback_speed)},
-    }
-    shapes = []
-    for sh in s.shapes:
-        t: dict = {"path": rel(sh.mesh_path)}
-        if sh.mesh_kind is not None:
-            t["kind"] = sh.mesh_kind
-        t.update(translation=_v3(sh.translation), rotation_deg=_v3(sh.rotation_deg),
-                 scale=_v3(sh.scale))
-        if sh.material is not None:
-            m = sh.material
-            t["material"] = {"density": float(m.density),
-                             "youngs_modulus": float(m.youngs_modulus),
-                             "poisson_ratio": float(m.poisson_ratio)}
-        if sh.linear_velocity is not None:
-            t["linear_velocity"] = _v3(sh.linear_velocity)
-        if sh.angular_velocity_deg is not None:
-            t["angular_velocity_deg"] = _v3(sh.angular_velocity_deg)
-        if sh.init_velocity is not None:
-            t["init_velocity"] = {"linear": _v3(sh.init_velocity.linear),
-                                  "angular_deg": _v3(sh.init_velocity.angular_deg)}
-        if sh.mesh_sequence is not None:
-            t["mesh_sequence"] = rel(sh.mesh_sequence)
-        if sh.dbc:
-            t["dbc"] = [{"box_min": _v3(d.box_min), "box_max": _v3(d.box_max),
-                         "linear_velocity": _v3(d.linear_velocity),
-                         "angular_velocity_deg": _v3(d.angular_velocity_deg),
-                         "time_range": _v3(d.time_range)} for d in sh.dbc]
-        if sh.nbc:
-            t["nbc"] = [{"box_min": _v3(n.box_min), "box_max": _v3(n.box_max),
-                         "acceleration": _v3(n.acceleration),
-                         "time_range": _v3(n.time_range)} for n in sh.nbc]
-        shapes.append(t)
-    doc["shapes"] = shapes
-    planes = []
-    for p in s.planes:
-        if (p.kind == "ground" and p.normal == (0.0, 1.0, 0.0) and p.origin[0] == 0
-                and p.origin[2] == 0 and p.stiffness == 0):
-            planes.append({"kind": "ground", "friction": float(p.friction),
-                           "height": float(p.origin[1])})
-        else:
-            planes.append({"kind": "halfSpace", "origin": _v3(p.origin),
-                           "normal": _v3(p.normal), "stiffness": float(p.stiffness),
-                           "friction": float(p.friction)})
-    doc["planes"] = planes
-    doc["mesh_obstacles"] = [
-        {"path": rel(m.mesh_path), "position": _v3(m.position), "size": float(m.size),
-         "stiffness": float(m.stiffness), "friction": float(m.friction),
-         "rotation_deg": _v3(m.rotation_deg)} for m in s.mesh_obstacles]
-    return doc
+    return contact
+
+
+def _shape_table(sh: ShapeSpec, rel) -> dict:
+    t: dict = {"path": rel(sh.mesh_path)}
+    if sh.mesh_kind is not None:
+        t["kind"] = sh.mesh_kind
+    t.update(translation=_v3(sh.translation), rotation_deg=_v3(sh.rotation_deg),
+             scale=_v3(sh.scale))
+    if sh.material is not None:
+        m = sh.material
+        t["material"] = {"density": float(m.density),
+                         "youngs_modulus": float(m.youngs_modulus),
+                         "poisson_ratio": float(m.poisson_ratio)}
+    if sh.linear_velocity is not None:
+        t["linear_velocity"] = _v3(sh.linear_velocity)
+    if sh.angular_velocity_deg is not None:
+        t["angular_velocity_deg"] = _v3(sh.angular_velocity_deg)
+    if sh.init_velocity is not None:
+        t["init_velocity"] = {"linear": _v3(sh.init_velocity.linear),
+                              "angular_deg": _v3(sh.init_velocity.angular_deg)}
+    if sh.mesh_sequence is not None:
+        t["mesh_sequence"] = rel(sh.mesh_sequence)
+    if sh.dbc:
+        t["dbc"] = [{"box_min": _v3(d.box_min), "box_max": _v3(d.box_max),
+                     "linear_velocity": _v3(d.linear_velocity),
+                     "angular_velocity_deg": _v3(d.angular_velocity_deg),
+                     "time_range": _v3(d.time_range)} for d in sh.dbc]
+    if sh.nbc:
+        t["nbc"] = [{"box_min": _v3(n.box_min), "box_max": _v3(n.box_max),
+                     "acceleration": _v3(n.acceleration),
+                     "time_range": _v3(n.time_range)} for n in sh.nbc]
+    return t
+
+
+def _plane_table(p: PlaneSpec) -> dict:
+    if (p.kind == "ground" and p.normal == (0.0, 1.0, 0.0) and p.origin[0] == 0
+            and p.origin[2] == 0 and p.stiffness == 0):
+        return {"kind": "ground", "friction": float(p.friction), "height": float(p.origin[1])}
+    return {"kind": "halfSpace", "origin": _v3(p.origin), "normal": _v3(p.normal),
+            "stiffness": float(p.stiffness), "friction": float(p.friction)}
 
 
 def _literal(v) -> str:

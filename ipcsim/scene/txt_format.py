@@ -19,6 +19,7 @@ values on the ``tol`` line ignored, unknown keywords skipped) this reader raises
 
 from __future__ import annotations
 
+import bisect
 import dataclasses
 import difflib
 import math
@@ -26,7 +27,7 @@ import re
 import sys
 from pathlib import Path
 
-from ..errors import SceneError
+from ..errors import SceneError, excerpt as _q
 from . import paths
 from .spec import (
     ENERGIES,
@@ -47,9 +48,15 @@ from .validate import LINEAR_SOLVERS, validate_scene
 __all__ = ["parse_txt", "format_txt", "KEYWORDS", "USAGE", "suggest", "unit_normal"]
 
 # A number as C++ stream extraction reads it, plus inf/nan so that we can name the problem.
+# ASCII digits only: Python's float() and int() also read other scripts' digits (١).
 _NUMBER = re.compile(r"[+-]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|inf(?:inity)?|nan)\Z",
-                     re.IGNORECASE)
-_INTEGER = re.compile(r"[+-]?\d+\Z")
+                     re.IGNORECASE | re.ASCII)
+_INTEGER = re.compile(r"[+-]?\d{1,18}\Z", re.ASCII)  # a count: int64, no huge texts
+_DIGITS = re.compile(r"[+-]?\d+\Z", re.ASCII)
+# Finding the lines with content: comments removed, the next character that is not
+# whitespace starts one (runs of blank and comment lines cost one search).
+_NON_SPACE = re.compile(r"\S")
+_FROM_HASH = re.compile(r"#[^\n]*")
 
 # tuning = [kappa (0: adaptive), dHat start, dHat target, dTol, eps_v start, eps_v target];
 # the optimizer's built-in values fill the entries a short `tuning N` leaves out.
@@ -127,6 +134,8 @@ NOOP_KEYWORDS = ("timeStepper", "inexactSolve", "resolution")
 
 def suggest(word: str, choices) -> str:
     """`` (did you mean 'x'?)`` for the closest choice, compared case-insensitively."""
+    if len(word) > 60:  # no keyword is that long; difflib would take its time
+        return ""
     lower = {}
     for c in choices:
         lower.setdefault(c.lower(), c)
@@ -214,7 +223,9 @@ class _Cursor:
     def integer(self, what: str) -> int:
         tok, line = self._take(what)
         if not _INTEGER.match(tok):
-            self.fail(f"{self.name} {what} must be a whole number, got '{tok}'", line)
+            if _DIGITS.match(tok):
+                self.fail(f"{self.name} {what} is too large ({_q(tok)})", line)
+            self.fail(f"{self.name} {what} must be a whole number, got '{_q(tok)}'", line)
         return int(tok)
 
     def done(self) -> None:
@@ -226,12 +237,49 @@ class _Cursor:
             return
         for tok, line in rest:
             if not _is_number(tok):
-                self.fail(f"{self.name}: unexpected '{tok}' after its arguments "
+                self.fail(f"{self.name}: unexpected '{_q(tok)}' after its arguments "
                           f"(usage: {self.usage}; start a comment with #)", line)
+        shown = " ".join(_q(t) for t, _ in rest[:5])
+        if len(rest) > 5:
+            shown += f" and {len(rest) - 5} more"
         self.r.warn(rest[0][1], f"{self.name} ignores the extra "
                                 f"{'number' if len(rest) == 1 else 'numbers'} "
-                                f"{' '.join(t for t, _ in rest)} (usage: {self.usage})")
+                                f"{shown} (usage: {self.usage})")
         self.k = len(self.toks)
+
+
+class _Rows:
+    """The tokens of each physical line (``rows[i]``, split when asked for), and where the
+    next line with content is: blank and comment lines are found by one regular
+    expression over the whole text, so a file of them costs no Python work per line."""
+
+    def __init__(self, text: str):
+        self._lines = text.split("\n")
+        # with everything from a `#` on removed, exactly the lines whose first token does
+        # not start with `#` keep a character that is not whitespace
+        code = _FROM_HASH.sub("", text)
+        content, line, last, pos = [], 0, 0, 0
+        while (m := _NON_SPACE.search(code, pos)) is not None:
+            start = m.start()
+            line += code.count("\n", last, start)
+            last = start
+            content.append(line)
+            pos = code.find("\n", start) + 1
+            if pos == 0:
+                break
+        self._content = content
+
+    def __len__(self) -> int:
+        return len(self._lines)
+
+    def __getitem__(self, i: int) -> list[str]:
+        return self._lines[i].split()
+
+    def next_content(self, i: int) -> int:
+        """The first line at or after ``i`` that is neither blank nor a comment (or
+        ``len(self)`` when there is none)."""
+        k = bisect.bisect_left(self._content, i)
+        return self._content[k] if k < len(self._content) else len(self._lines)
 
 
 class _TxtReader:
@@ -239,7 +287,7 @@ class _TxtReader:
         self.source = str(source) if source is not None else None
         self.scene_path = source
         text = text.replace("\r\n", "\n").replace("\r", "\n")
-        self.rows = [line.split() for line in text.split("\n")]
+        self.rows = _Rows(text)
         self.i = 0
         self.values: dict = {}
         self.lines: dict[str, int] = {}
@@ -264,11 +312,11 @@ class _TxtReader:
 
     def to_float(self, tok: str, line: int, what: str, *, allow_inf: bool = False) -> float:
         if not _is_number(tok):
-            self.fail(line, f"{what} must be a number, got '{tok}'")
+            self.fail(line, f"{what} must be a number, got '{_q(tok)}'")
         x = float(tok)
         if math.isnan(x) or (math.isinf(x) and not (allow_inf and x > 0)):
             extra = " (only the end of a time range may be inf)" if math.isinf(x) else ""
-            self.fail(line, f"{what} must be a finite number, got '{tok}'{extra}")
+            self.fail(line, f"{what} must be a finite number, got '{_q(tok)}'{extra}")
         return x
 
     def set(self, key: str, field: str, value, line: int) -> None:
@@ -281,12 +329,13 @@ class _TxtReader:
     # main loop ----------------------------------------------------------------------------
 
     def parse(self) -> SceneSpec:
-        while self.i < len(self.rows):
+        while True:
+            self.i = self.rows.next_content(self.i)
+            if self.i >= len(self.rows):
+                break
             line = self.i + 1
             toks = _code(self.rows[self.i])
             self.i += 1
-            if not toks:
-                continue
             kw, args = toks[0], toks[1:]
             if kw in IGNORED_KEYWORDS:
                 self.ignored.append(" ".join(toks))
@@ -300,7 +349,7 @@ class _TxtReader:
                 hint = suggest(kw, KEYWORDS)
                 if not hint and kw in SHAPE_EXTRAS:
                     hint = " (shape extras belong on a shape line)"
-                self.fail(line, f"unknown keyword '{kw}'{hint}")
+                self.fail(line, f"unknown keyword '{_q(kw)}'{hint}")
             handler(self, self.cursor(kw, args, line))
         return self.finish()
 
@@ -330,14 +379,15 @@ class _TxtReader:
             **v,
         )
         more = validate_scene(spec, source=self.source, lines=self.lines, fmt="txt")
-        return dataclasses.replace(spec, warnings=tuple(self.warnings) + more)
+        return dataclasses.replace(spec, warnings=tuple(self.warnings) + more,
+                                   key_lines=dict(self.lines))
 
     # files --------------------------------------------------------------------------------
 
     def resolve(self, written: str, line: int, what: str, exists=paths.is_file) -> Path:
         found = paths.resolve(written, self.scene_path, exists)
         if found is None:
-            self.fail(line, paths.not_found_message(what, written, self.scene_path))
+            self.fail(line, paths.not_found_message(what, written, self.scene_path, exists))
         return found
 
     def resolve_mesh(self, written: str, line: int) -> tuple[Path, str | None]:
@@ -345,7 +395,7 @@ class _TxtReader:
         back to ``x.obj`` as in the original, with a warning."""
         suffix = Path(written).suffix.lower()
         if suffix not in MESH_KINDS:
-            self.fail(line, f"unknown mesh file extension '{suffix}' in '{written}' "
+            self.fail(line, f"unknown mesh file extension '{_q(suffix)}' in '{_q(written)}' "
                             "(tetrahedra: .msh, .vtk, .vtu, .ele or none for TetGen; "
                             "surface: .obj; segments: .seg; points: .pt)")
         exists = paths.is_tetgen if suffix in ("", ".ele") else paths.is_file
@@ -357,11 +407,11 @@ class _TxtReader:
             found = paths.resolve(obj, self.scene_path)
             if found is not None:
                 part = "edges" if suffix == ".seg" else "vertices"
-                self.warn(line, f"'{written}' does not exist; using the {part} of "
-                                f"'{obj}' instead (as the original does)")
+                self.warn(line, f"'{_q(written)}' does not exist; using the {part} of "
+                                f"'{_q(obj)}' instead (as the original does)")
                 return found, MESH_KINDS[suffix]
         what = "TetGen mesh (.node + .ele)" if suffix in ("", ".ele") else "mesh file"
-        self.fail(line, paths.not_found_message(what, written, self.scene_path))
+        self.fail(line, paths.not_found_message(what, written, self.scene_path, exists))
 
     # shape lines --------------------------------------------------------------------------
 
@@ -379,7 +429,7 @@ class _TxtReader:
                     cont = True
                     after = _code(row[k + 1:])
                     if after and not in_comment:
-                        self.fail(line, f"unexpected '{after[0]}' after the line "
+                        self.fail(line, f"unexpected '{_q(after[0])}' after the line "
                                         "continuation '\\' (it must end the line)")
                     break
                 if in_comment:
@@ -394,8 +444,7 @@ class _TxtReader:
 
     def next_content_line(self) -> int | None:
         """Skip blank and comment lines; the index of the next other line, or None."""
-        while self.i < len(self.rows) and not _code(self.rows[self.i]):
-            self.i += 1
+        self.i = self.rows.next_content(self.i)
         return self.i if self.i < len(self.rows) else None
 
     def shape_line(self, toks) -> None:
@@ -454,10 +503,10 @@ class _TxtReader:
                     self.lines[f"{key}.nbc[{len(nbc)}]"] = tline
                     nbc.append(NeumannSpec(lo, hi, acc, rng, line=tline))
             elif _is_number(tok):
-                c.fail(f"unexpected number '{tok}' on the shape line: a shape line has "
+                c.fail(f"unexpected number '{_q(tok)}' on the shape line: a shape line has "
                        f"exactly 9 numbers before its extras (usage: {SHAPE_USAGE})", tline)
             else:
-                c.fail(f"unknown shape extra '{tok}'{suggest(tok, SHAPE_EXTRAS)} "
+                c.fail(f"unknown shape extra '{_q(tok)}'{suggest(tok, SHAPE_EXTRAS)} "
                        f"(extras: {', '.join(SHAPE_EXTRAS)})", tline)
             c.k = e.k
         self.shapes.append(ShapeSpec(
@@ -484,7 +533,7 @@ class _TxtReader:
             if first in KEYWORDS and paths.resolve(first, self.scene_path,
                                                    paths.is_tetgen) is None:
                 a.fail(f"expected shape line {k + 1} of {n} here, found the keyword "
-                       f"`{first}`: the `shapes` block at line {a.line} declares {n} shapes "
+                       f"`{_q(first)}`: the `shapes` block at line {a.line} declares {n} shapes "
                        f"but has only {k} shape line{'s' if k != 1 else ''}", self.i + 1)
             toks = self.gather()
             if not toks:
@@ -525,7 +574,7 @@ class _TxtReader:
             material = MaterialSpec(c.number("density"), c.number("Young's modulus"),
                                     c.number("Poisson ratio"))
         if c.more() and not _is_number(c.peek()):
-            c.fail(f"a shapeMatrix line takes only the `material` extra, got '{c.peek()}' "
+            c.fail(f"a shapeMatrix line takes only the `material` extra, got '{_q(c.peek())}' "
                    "(its copies carry no velocities or boundary conditions)")
         c.done()
         if math.prod(counts) == 0:
@@ -575,7 +624,7 @@ class _TxtReader:
             rot = a.vec3("rotate")
         a.done()
         if Path(written).suffix.lower() != ".obj":
-            a.fail(f"`meshCO` needs an .obj triangle mesh, got '{written}'", a.line)
+            a.fail(f"`meshCO` needs an .obj triangle mesh, got '{_q(written)}'", a.line)
         mesh = self.resolve(written, a.line, "meshCO mesh file")
         self.lines[f"mesh_obstacles[{len(self.obstacles)}]"] = a.line
         self.obstacles.append(MeshObstacleSpec(mesh, pos, size, stiffness, mu, rot,
@@ -601,7 +650,7 @@ class _TxtReader:
     def kw_energy(self, a: _Cursor) -> None:
         name = a.word("an energy name")
         if name not in ENERGIES:
-            a.fail(f"unknown energy '{name}'{suggest(name, ENERGIES)} "
+            a.fail(f"unknown energy '{_q(name)}'{suggest(name, ENERGIES)} "
                    f"(choose {' or '.join(ENERGIES)})", a.line)
         self.set("material.energy", "energy", name, a.line)
         a.done()
@@ -609,7 +658,7 @@ class _TxtReader:
     def kw_timeIntegration(self, a: _Cursor) -> None:
         name = a.word("an integrator (BE or NM)")
         if name not in ("BE", "NM"):
-            a.fail(f"unknown time integrator '{name}'{suggest(name, ('BE', 'NM'))} "
+            a.fail(f"unknown time integrator '{_q(name)}'{suggest(name, ('BE', 'NM'))} "
                    "(choose BE or NM)", a.line)
         self.set("integrator.type", "integrator", name, a.line)
         if name == "NM":
@@ -695,12 +744,13 @@ class _TxtReader:
         n = a.integer("count N")
         if a.more() and not a.peek().startswith("#"):
             a.fail(f"`{kw} {n}` takes its {n} value(s) from the following lines, not from "
-                   f"its own line (the original silently ignores '{a.peek()}' here); move "
+                   f"its own line (the original silently ignores '{_q(a.peek())}' here); move "
                    "them to the next line", a.line)
         if n < (1 if kw == "tol" else 0):
             a.fail(f"`{kw}` count must be >= {1 if kw == 'tol' else 0}, got {n}", a.line)
         vals: list[tuple[float, int]] = []
         while len(vals) < n:
+            self.i = self.rows.next_content(self.i)
             if self.i >= len(self.rows):
                 a.fail(f"`{kw} {n}` expects {n} numbers on the following lines, but the file "
                        f"ends after {len(vals)}", a.line)
@@ -709,11 +759,11 @@ class _TxtReader:
             self.i += 1
             for tok in toks:
                 if len(vals) == n:
-                    self.fail(line, f"unexpected '{tok}' after the {n} value(s) of `{kw}` "
+                    self.fail(line, f"unexpected '{_q(tok)}' after the {n} value(s) of `{kw}` "
                                     f"(line {a.line}); put the next keyword on its own line")
                 if not _is_number(tok):
                     self.fail(line, f"`{kw} {n}` (line {a.line}) expects {n} numbers on the "
-                                    f"following lines; got '{tok}' after {len(vals)}")
+                                    f"following lines; got '{_q(tok)}' after {len(vals)}")
                 vals.append((self.to_float(tok, line, f"`{kw}` value"), line))
         return vals
 
@@ -761,10 +811,10 @@ class _TxtReader:
         name = a.word("a solver name")
         a.done()
         if name in UNSUPPORTED_SOLVERS:
-            a.fail(f"constraint solver '{name}' is not implemented by ipcsim; use "
+            a.fail(f"constraint solver '{_q(name)}' is not implemented by ipcsim; use "
                    "interiorPoint (the IPC barrier method)", a.line)
         if name not in SOLVER_NAMES:
-            a.fail(f"unknown constraint solver '{name}'"
+            a.fail(f"unknown constraint solver '{_q(name)}'"
                    f"{suggest(name, (*SOLVER_NAMES, *UNSUPPORTED_SOLVERS))} "
                    "(ipcsim implements interiorPoint, alias IP)", a.line)
         self.set("solver.constraint_solver", "constraint_solver", SOLVER_NAMES[name], a.line)
@@ -775,14 +825,17 @@ class _TxtReader:
             return  # `section end` met while parsing: nothing to close
         for name in names:
             if name not in SOLVER_NAMES and name not in UNSUPPORTED_SOLVERS:
-                a.fail(f"`section` names solvers, got '{name}'"
+                a.fail(f"`section` names solvers, got '{_q(name)}'"
                        f"{suggest(name, (*SOLVER_NAMES, *UNSUPPORTED_SOLVERS, 'end'))}",
                        a.line)
         if any(name in SOLVER_NAMES for name in names):
             return  # the selected solver (always interiorPoint) is listed: parse normally
         # otherwise skip every line up to and including `section end` (a bare `section`
         # skips too)
-        while self.i < len(self.rows):
+        while True:
+            self.i = self.rows.next_content(self.i)
+            if self.i >= len(self.rows):
+                break
             row = self.rows[self.i]
             self.i += 1
             if row[:2] == ["section", "end"]:
@@ -813,7 +866,7 @@ class _TxtReader:
     def kw_script(self, a: _Cursor) -> None:
         name = a.word("a script name")
         if name not in SUPPORTED_SCRIPTS:
-            a.fail(f"script '{name}' is not supported{suggest(name, SUPPORTED_SCRIPTS)}; "
+            a.fail(f"script '{_q(name)}' is not supported{suggest(name, SUPPORTED_SCRIPTS)}; "
                    f"ipcsim implements: {', '.join(SUPPORTED_SCRIPTS)}", a.line)
         params: tuple[float, ...] = ()
         if a.more() and not a.peek().startswith("#"):
@@ -833,7 +886,7 @@ class _TxtReader:
             self.set("solver.linear_solver", "linear_solver", None, a.line)
             return
         if key not in LINEAR_SOLVERS:
-            a.fail(f"unknown linear solver '{name}'{suggest(name, LINEAR_SOLVERS)} "
+            a.fail(f"unknown linear solver '{_q(name)}'{suggest(name, LINEAR_SOLVERS)} "
                    f"(choose {', '.join(LINEAR_SOLVERS)} or auto)", a.line)
         self.set("solver.linear_solver", "linear_solver", key, a.line)
 
@@ -920,14 +973,21 @@ def format_txt(spec: SceneSpec, path=None) -> str:
         raise SceneError(out, None, f"contact formulation {spec.contact_formulation!r} has no "
                                     "text form; write the scene as .toml")
     folder = paths.absolute(path).parent if path is not None else paths.absolute(".")
-    s = spec
     L = ["# ipcsim scene (IPC script format). SI units; angles in degrees.",
          "# dHat, epsv and tol are relative to the rest bounding-box diagonal unless "
          "useAbsParameters is given."]
-    L.append(f"time {_f(s.duration)} {_f(s.dt)}")
-    L.append(f"density {_f(s.density)}")
-    L.append(f"stiffness {_f(s.youngs_modulus)} {_f(s.poisson_ratio)}")
-    L.append(f"energy {s.energy}")
+    L += _physics_lines(spec)
+    L += _contact_lines(spec)
+    L += _switch_lines(spec, folder, out)
+    L += _plane_and_obstacle_lines(spec, folder, out)
+    L.append(f"shapes input {len(spec.shapes)}")
+    L += [_shape_line(sh, folder, out) for sh in spec.shapes]
+    return "\n".join(L) + "\n"
+
+
+def _physics_lines(s: SceneSpec) -> list[str]:
+    L = [f"time {_f(s.duration)} {_f(s.dt)}", f"density {_f(s.density)}",
+         f"stiffness {_f(s.youngs_modulus)} {_f(s.poisson_ratio)}", f"energy {s.energy}"]
     if s.integrator == "NM":
         L.append(f"timeIntegration NM {_f(s.newmark_beta)} {_f(s.newmark_gamma)}")
     else:
@@ -937,8 +997,12 @@ def format_txt(spec: SceneSpec, path=None) -> str:
     L.append(f"warmStart {s.warm_start}")
     if not s.gravity:
         L.append("turnOffGravity")
-    L.append("selfCollisionOn" if s.self_collision else "selfCollisionOff")
-    L.append(f"selfFric {_f(s.self_friction)}")
+    return L
+
+
+def _contact_lines(s: SceneSpec) -> list[str]:
+    L = ["selfCollisionOn" if s.self_collision else "selfCollisionOff",
+         f"selfFric {_f(s.self_friction)}"]
     if s.dhat_start is not None or s.dtol != _DEFAULT.dtol:
         # only `tuning` can say an initial dHat or dTol; its first entry is kappa (0: adaptive)
         L.append("tuning 6")
@@ -962,6 +1026,11 @@ def format_txt(spec: SceneSpec, path=None) -> str:
     L.append(f"constraintSolver {s.constraint_solver}")
     if s.linear_solver is not None:
         L.append(f"linearSolver {_SOLVER_SPELLING.get(s.linear_solver, s.linear_solver)}")
+    return L
+
+
+def _switch_lines(s: SceneSpec, folder: Path, out) -> list[str]:
+    L = []
     for kw, rng in (("DBCTimeRange", s.dbc_time_range), ("NBCTimeRange", s.nbc_time_range)):
         if rng != (0.0, INF):
             L.append(f"{kw} {_f(rng[0])}" + ("" if rng[1] == INF else f" {_f(rng[1])}"))
@@ -977,9 +1046,14 @@ def format_txt(spec: SceneSpec, path=None) -> str:
     L.append(f"playBackSpeed {_f(s.playback_speed)}")
     if s.append_str:
         if any(ch.isspace() for ch in s.append_str):
-            raise SceneError(out, None, f"appendStr {s.append_str!r} contains whitespace")
+            raise SceneError(out, None, f"appendStr {_q(repr(s.append_str))} contains "
+                                        "whitespace")
         L.append(f"appendStr {s.append_str}")
+    return L
 
+
+def _plane_and_obstacle_lines(s: SceneSpec, folder: Path, out) -> list[str]:
+    L = []
     for p in s.planes:
         if (p.kind == "ground" and p.normal == (0.0, 1.0, 0.0) and p.origin[0] == 0
                 and p.origin[2] == 0 and p.stiffness == 0):
@@ -991,38 +1065,38 @@ def format_txt(spec: SceneSpec, path=None) -> str:
         rot = f" rotate {_fs(m.rotation_deg)}" if any(m.rotation_deg) else ""
         L.append(f"meshCO {_token_path(m.mesh_path, folder, 'mesh path', out)} "
                  f"{_fs(m.position)} {_f(m.size)} {_f(m.stiffness)} {_f(m.friction)}{rot}")
+    return L
 
-    L.append(f"shapes input {len(s.shapes)}")
-    for sh in s.shapes:
-        mesh = sh.mesh_path
-        if sh.mesh_kind is not None and sh.mesh_kind != MESH_KINDS.get(mesh.suffix.lower()):
-            # an .obj read as segments/points: name the .seg/.pt, which falls back to it
-            mesh = mesh.with_suffix({"segments": ".seg", "points": ".pt"}[sh.mesh_kind])
-        parts = [f"{_token_path(mesh, folder, 'mesh path', out)}  {_fs(sh.translation)}  "
-                 f"{_fs(sh.rotation_deg)}  {_fs(sh.scale)}"]
-        if sh.material is not None:
-            m = sh.material
-            parts.append(f"material {_f(m.density)} {_f(m.youngs_modulus)} "
-                         f"{_f(m.poisson_ratio)}")
-        if sh.linear_velocity is not None:
-            parts.append(f"linearVelocity {_fs(sh.linear_velocity)}")
-        if sh.angular_velocity_deg is not None:
-            parts.append(f"angularVelocity {_fs(sh.angular_velocity_deg)}")
-        if sh.init_velocity is not None:
-            iv = sh.init_velocity
-            parts.append(f"initVel {_fs(iv.linear)}  {_fs(iv.angular_deg)}")
-        if sh.mesh_sequence is not None:
-            parts.append(f"meshSeq "
-                         f"{_token_path(sh.mesh_sequence, folder, 'mesh sequence', out)}")
-        line = "  ".join(parts)
-        conts = []
-        for d in sh.dbc:
-            conts.append(" ".join([f"DBC {_fs(d.box_min)}  {_fs(d.box_max)}  "
-                                   f"{_fs(d.linear_velocity)}  {_fs(d.angular_velocity_deg)}",
-                                   *_window(d.time_range)]))
-        for nb in sh.nbc:
-            conts.append(" ".join([f"NBC {_fs(nb.box_min)}  {_fs(nb.box_max)}  "
-                                   f"{_fs(nb.acceleration)}", *_window(nb.time_range)]))
-        # one boundary condition per continuation line keeps long shape lines readable
-        L.append(" \\\n    ".join([line, *conts]))
-    return "\n".join(L) + "\n"
+
+def _shape_line(sh: ShapeSpec, folder: Path, out) -> str:
+    mesh = sh.mesh_path
+    if sh.mesh_kind is not None and sh.mesh_kind != MESH_KINDS.get(mesh.suffix.lower()):
+        # an .obj read as segments/points: name the .seg/.pt, which falls back to it
+        mesh = mesh.with_suffix({"segments": ".seg", "points": ".pt"}[sh.mesh_kind])
+    parts = [f"{_token_path(mesh, folder, 'mesh path', out)}  {_fs(sh.translation)}  "
+             f"{_fs(sh.rotation_deg)}  {_fs(sh.scale)}"]
+    if sh.material is not None:
+        m = sh.material
+        parts.append(f"material {_f(m.density)} {_f(m.youngs_modulus)} "
+                     f"{_f(m.poisson_ratio)}")
+    if sh.linear_velocity is not None:
+        parts.append(f"linearVelocity {_fs(sh.linear_velocity)}")
+    if sh.angular_velocity_deg is not None:
+        parts.append(f"angularVelocity {_fs(sh.angular_velocity_deg)}")
+    if sh.init_velocity is not None:
+        iv = sh.init_velocity
+        parts.append(f"initVel {_fs(iv.linear)}  {_fs(iv.angular_deg)}")
+    if sh.mesh_sequence is not None:
+        parts.append(f"meshSeq "
+                     f"{_token_path(sh.mesh_sequence, folder, 'mesh sequence', out)}")
+    line = "  ".join(parts)
+    conts = []
+    for d in sh.dbc:
+        conts.append(" ".join([f"DBC {_fs(d.box_min)}  {_fs(d.box_max)}  "
+                               f"{_fs(d.linear_velocity)}  {_fs(d.angular_velocity_deg)}",
+                               *_window(d.time_range)]))
+    for nb in sh.nbc:
+        conts.append(" ".join([f"NBC {_fs(nb.box_min)}  {_fs(nb.box_max)}  "
+                               f"{_fs(nb.acceleration)}", *_window(nb.time_range)]))
+    # one boundary condition per continuation line keeps long shape lines readable
+    return " \\\n    ".join([line, *conts])

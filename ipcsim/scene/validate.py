@@ -16,10 +16,10 @@ import math
 import re
 from collections.abc import Mapping
 
-from ..errors import SceneError
+from ..errors import SceneError, excerpt as _q
 from .spec import ENERGIES, INTEGRATORS, SUPPORTED_SCRIPTS, SceneSpec
 
-__all__ = ["validate_scene", "LINEAR_SOLVERS", "text_name"]
+__all__ = ["validate_scene", "LINEAR_SOLVERS", "MAX_STEPS", "text_name"]
 
 # Names `linearSolver` / `solver.linear_solver` accept (lower case). The solver maps the
 # original's CHOLMOD/EIGEN/AMGCL onto what is installed; None means "the fastest one".
@@ -94,6 +94,14 @@ _TEXT_NAMES = {
 
 _INDEX = re.compile(r"\[\d+\]")
 
+# Bounds on numbers that no scene needs to exceed; beyond them the simulation's arithmetic
+# would overflow (volumes, masses, barrier stiffness) and fail with a misleading message.
+MAX_STEPS = 10**8
+MAX_FRICTION_ITERATIONS = 100
+MAX_DENSITY = 1e9  # kg/m^3
+MAX_LENGTH = 1e9  # m: translations, plane origins, obstacle sizes and positions
+MAX_SCALE = 1e9  # shape scale factors, in size
+
 
 def text_name(key: str) -> str:
     """The text format's name for the value at TOML key path ``key``."""
@@ -146,7 +154,7 @@ class _Checker:
                plane_kind=None):
         """Finite, and optionally > 0, >= 0, or in [lo, hi_open)."""
         if isinstance(x, bool) or not isinstance(x, (int, float)):
-            self.fail(key, f"must be a number (got {x!r})", plane_kind)
+            self.fail(key, f"must be a number (got {_q(repr(x))})", plane_kind)
         if not math.isfinite(x):
             self.fail(key, f"must be finite (got {_num(x)})", plane_kind)
         if positive and not x > 0:
@@ -157,11 +165,29 @@ class _Checker:
             self.fail(key, f"must lie in [{_num(lo)}, {_num(hi_open)}) (got {_num(x)})",
                       plane_kind)
 
-    def vector(self, key, v, n=3):
+    def vector(self, key, v, n=3, *, length=False):
+        """``n`` finite numbers; ``length``: each a length of at most MAX_LENGTH."""
         if len(v) != n:
             self.fail(key, f"needs {n} numbers (got {len(v)})")
         for x in v:
             self.number(key, x)
+            if length:
+                self.length(key, x)
+
+    def length(self, key, x):
+        """A length in metres no scene needs to exceed (coordinates, sizes)."""
+        if abs(x) > MAX_LENGTH:
+            self.fail(key, f"{_num(x)} m is beyond any scene (lengths and coordinates are "
+                           f"at most {MAX_LENGTH:.0e} m)")
+
+    def scale(self, key, v):
+        """Per-axis scale factors, none zero or beyond [1/MAX_SCALE, MAX_SCALE] in size."""
+        self.vector(key, v)
+        if any(x == 0 for x in v):
+            self.fail(key, f"has a zero component {tuple(v)}: the shape would be flat")
+        if any(not 1.0 / MAX_SCALE <= abs(x) <= MAX_SCALE for x in v):
+            self.fail(key, f"{tuple(v)} has a factor beyond {1.0 / MAX_SCALE:.0e}.."
+                           f"{MAX_SCALE:.0e} in size")
 
     def time_range(self, key, r):
         t0, t1 = r
@@ -169,7 +195,7 @@ class _Checker:
         # the upper end may be +inf ("never ends"); NaN or -inf make no sense
         if isinstance(t1, bool) or not isinstance(t1, (int, float)) or math.isnan(t1) \
                 or t1 == -math.inf:
-            self.fail(key, f"end must be a number or inf (got {t1!r})")
+            self.fail(key, f"end must be a number or inf (got {_q(repr(t1))})")
         if t0 > t1:
             self.fail(key, f"starts after it ends ({_num(t0)} > {_num(t1)})")
 
@@ -184,6 +210,10 @@ class _Checker:
 
     def material(self, key, density, youngs, poisson):
         self.number(f"{key}.density", density, positive=True)
+        if density > MAX_DENSITY:
+            self.fail(f"{key}.density", f"{_num(density)} kg/m^3 is beyond any material "
+                                        f"(at most {MAX_DENSITY:.0e}; osmium, the densest "
+                                        "element, has 2.26e4)")
         self.number(f"{key}.youngs_modulus", youngs, positive=True)
         # nu = 0.5 is incompressible: lambda = E nu / ((1 + nu)(1 - 2 nu)) is infinite
         self.number(f"{key}.poisson_ratio", poisson, lo=0.0, hi_open=0.5)
@@ -202,22 +232,37 @@ def validate_scene(
     key paths to line numbers; ``fmt`` ("txt" or "toml") chooses how values are named.
     """
     c = _Checker(source if source is not None else spec.source, fmt, lines or {})
-    s = spec
+    _check_time(c, spec)
+    _check_material_and_integrator(c, spec)
+    _check_contact(c, spec)
+    _check_solver(c, spec)
+    _check_scene_switches(c, spec)
+    _check_shapes(c, spec)
+    _check_planes_and_obstacles(c, spec)
+    return tuple(c.warnings)
 
-    # time: IPC takes ceil(duration / dt) implicit steps of h = dt
+
+def _check_time(c: _Checker, s: SceneSpec) -> None:
+    # IPC takes ceil(duration / dt) implicit steps of h = dt
     c.number("time.dt", s.dt, positive=True)
     c.number("time.duration", s.duration, positive=True)
     if s.duration < s.dt * (1 - 1e-12):
         c.fail("time.duration", f"({_num(s.duration)} s) is shorter than one time step "
                                 f"dt = {_num(s.dt)} s")
+    steps = s.duration / s.dt
+    if not steps <= MAX_STEPS:  # also catches an overflow to inf
+        c.fail("time.duration", f"({_num(s.duration)} s) with dt = {_num(s.dt)} s makes "
+                                f"{steps:.3g} time steps; ipcsim runs at most {MAX_STEPS:.0e}")
 
+
+def _check_material_and_integrator(c: _Checker, s: SceneSpec) -> None:
     c.material("material", s.density, s.youngs_modulus, s.poisson_ratio)
     if s.energy not in ENERGIES:
-        c.fail("material.energy", f"must be one of {', '.join(ENERGIES)} (got {s.energy!r})")
-
+        c.fail("material.energy", f"must be one of {', '.join(ENERGIES)} "
+                                  f"(got {_q(repr(s.energy))})")
     if s.integrator not in INTEGRATORS:
         c.fail("integrator.type", f"must be one of {', '.join(INTEGRATORS)} "
-                                  f"(got {s.integrator!r})")
+                                  f"(got {_q(repr(s.integrator))})")
     # Newmark's incremental potential is scaled by beta: beta = 0 would be explicit
     c.number("integrator.newmark_beta", s.newmark_beta, positive=True)
     c.number("integrator.newmark_gamma", s.newmark_gamma, nonneg=True)
@@ -226,8 +271,11 @@ def validate_scene(
     if s.damping_ratio > 1:
         c.fail("integrator.damping_ratio", f"must lie in [0, 1] (got {_num(s.damping_ratio)})")
     if isinstance(s.warm_start, bool) or s.warm_start not in range(6):
-        c.fail("integrator.warm_start", f"must be an integer 0..5 (got {s.warm_start!r})")
+        c.fail("integrator.warm_start", f"must be an integer 0..5 "
+                                        f"(got {_q(repr(s.warm_start))})")
 
+
+def _check_contact(c: _Checker, s: SceneSpec) -> None:
     c.number("contact.self_friction", s.self_friction, nonneg=True)
     if s.kappa is not None:
         c.number("contact.kappa", s.kappa, positive=True)
@@ -244,46 +292,57 @@ def validate_scene(
     if s.epsv_abs is not None:
         c.number("contact.epsv_abs", s.epsv_abs, positive=True)
     c.number("contact.dtol", s.dtol, nonneg=True)
-    if isinstance(s.friction_iterations, bool) or not isinstance(s.friction_iterations, int):
+    n = s.friction_iterations
+    if isinstance(n, bool) or not isinstance(n, int):
+        c.fail("contact.friction_iterations", f"must be an integer (got {_q(repr(n))})")
+    if n > MAX_FRICTION_ITERATIONS:
         c.fail("contact.friction_iterations",
-               f"must be an integer (got {s.friction_iterations!r})")
+               f"must be at most {MAX_FRICTION_ITERATIONS} lagged friction updates per step "
+               f"(got {_q(n)}; 0 or less: until the friction forces settle)")
     c.number("contact.kappa_min_multiplier", s.kappa_min_multiplier, positive=True)
     if s.contact_formulation == "penalty":
         c.number("contact.penalty_stiffness", s.penalty_stiffness, positive=True)
 
+
+def _check_solver(c: _Checker, s: SceneSpec) -> None:
     if not s.newton_tol:
         c.fail("solver.newton_tol", "needs at least one value")
     for x in s.newton_tol:
         c.number("solver.newton_tol", x, positive=True)
     if s.constraint_solver != "interiorPoint":
-        c.fail("solver.constraint_solver",
-               f"{s.constraint_solver!r} is not implemented by ipcsim (only interiorPoint)")
+        c.fail("solver.constraint_solver", f"{_q(repr(s.constraint_solver))} is not "
+                                           "implemented by ipcsim (only interiorPoint)")
     if s.linear_solver is not None and s.linear_solver not in LINEAR_SOLVERS:
         c.fail("solver.linear_solver", f"must be one of {', '.join(LINEAR_SOLVERS)} "
-                                       f"(got {s.linear_solver!r})")
+                                       f"(got {_q(repr(s.linear_solver))})")
 
+
+def _check_scene_switches(c: _Checker, s: SceneSpec) -> None:
     c.time_range("scene.dbc_time_range", s.dbc_time_range)
     c.time_range("scene.nbc_time_range", s.nbc_time_range)
     if s.script not in SUPPORTED_SCRIPTS:
-        c.fail("scene.script", f"{s.script!r} is not supported; ipcsim implements: "
+        c.fail("scene.script", f"{_q(repr(s.script))} is not supported; ipcsim implements: "
                                f"{', '.join(SUPPORTED_SCRIPTS)}")
     for x in s.script_params:
         c.number("scene.script_params", x)
     c.number("scene.handle_ratio", s.handle_ratio, nonneg=True)
-    c.number("scene.size", s.size)
+    c.length("scene.size", s.size)
     if s.rotate_model is not None:
         c.vector("scene.rotate_model", s.rotate_model, 4)
         if s.rotate_model[3] != 0 and not any(s.rotate_model[:3]):
             c.fail("scene.rotate_model", "axis is the zero vector")
     c.number("output.playback_speed", s.playback_speed, positive=True)
-    if re.search(r"[\s/\\]", s.append_str):
-        c.fail("output.append_str", f"must be one word without slashes (got {s.append_str!r}); "
+    if re.search(r"[\s/\\]", s.append_str) or s.append_str in (".", ".."):
+        c.fail("output.append_str", f"must be one word without slashes "
+                                    f"(got {_q(repr(s.append_str))}); "
                                     "it becomes part of a folder name")
 
-    _check_shapes(c, s)
+
+def _check_planes_and_obstacles(c: _Checker, s: SceneSpec) -> None:
     for k, p in enumerate(s.planes):
         key = f"planes[{k}]"
-        c.vector(f"{key}.height" if p.kind == "ground" else f"{key}.origin", p.origin)
+        c.vector(f"{key}.height" if p.kind == "ground" else f"{key}.origin", p.origin,
+                 length=True)
         c.vector(f"{key}.normal", p.normal)
         if abs(math.hypot(*p.normal) - 1.0) > 1e-9:
             c.fail(f"{key}.normal", "must be a unit vector")
@@ -291,12 +350,12 @@ def validate_scene(
         c.number(f"{key}.stiffness", p.stiffness)
     for k, m in enumerate(s.mesh_obstacles):
         key = f"mesh_obstacles[{k}]"
-        c.vector(f"{key}.position", m.position)
+        c.vector(f"{key}.position", m.position, length=True)
         c.number(f"{key}.size", m.size, positive=True)
+        c.length(f"{key}.size", m.size)
         c.number(f"{key}.stiffness", m.stiffness)
         c.number(f"{key}.friction", m.friction, nonneg=True)
         c.vector(f"{key}.rotation_deg", m.rotation_deg)
-    return tuple(c.warnings)
 
 
 def _check_shapes(c: _Checker, s: SceneSpec) -> None:
@@ -305,11 +364,9 @@ def _check_shapes(c: _Checker, s: SceneSpec) -> None:
         raise SceneError(c.source, None, f"the scene has no shapes (add {hint})")
     for i, sh in enumerate(s.shapes):
         key = f"shapes[{i}]"
-        c.vector(f"{key}.translation", sh.translation)
+        c.vector(f"{key}.translation", sh.translation, length=True)
         c.vector(f"{key}.rotation_deg", sh.rotation_deg)
-        c.vector(f"{key}.scale", sh.scale)
-        if any(x == 0 for x in sh.scale):
-            c.fail(f"{key}.scale", f"has a zero component {sh.scale}: the shape would be flat")
+        c.scale(f"{key}.scale", sh.scale)
         if sh.kind == "tet" and math.prod(sh.scale) < 0:
             c.fail(f"{key}.scale", f"{sh.scale} mirrors the mesh, which turns every "
                                    "tetrahedron inside out")
@@ -331,7 +388,7 @@ def _check_shapes(c: _Checker, s: SceneSpec) -> None:
                                                f"kinematic {sh.kind} shape '{sh.mesh_path.name}'")
             elif s.script != "null":
                 c.warn(f"{key}.init_velocity", f"an initial velocity is only applied with "
-                                               f"script null (this scene uses {s.script!r})")
+                                               f"script null (this scene uses {_q(repr(s.script))})")
         for j, d in enumerate(sh.dbc):
             dk = f"{key}.dbc[{j}]"
             c.box(dk, d.box_min, d.box_max)

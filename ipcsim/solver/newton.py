@@ -188,6 +188,8 @@ class NewtonSolver:
             x_new[kinematic] = objective.target[kinematic]  # land exactly on the targets
         if not run.kinematic_complete:
             energy = line.energy_at(x_new)
+            if not np.isfinite(energy):
+                raise NonFiniteError("energy", objective.nonfinite_terms(x_new), it)
         return x_new, alpha, energy, False
 
     def _backtrack(self, line, alpha, e0, it: int):
@@ -200,7 +202,7 @@ class NewtonSolver:
             raise NonFiniteError("energy", line.objective.nonfinite_terms(line.x), it)
         for _ in range(self.settings.max_halvings):
             e = line.energy(alpha)
-            if e < e0:
+            if e < e0:  # a finite e0 and e < e0: e is finite too
                 return alpha, False, e
             alpha *= 0.5
         return 0.0, True, e0

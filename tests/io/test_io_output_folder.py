@@ -70,3 +70,51 @@ def test_a_file_in_the_way_is_refused(tmp_path):
     with pytest.raises(OutputFolderError, match="not a folder"):
         prepare_output_folder(target, overwrite=True)
     assert target.read_text() == "not a folder"
+
+
+# ----------------------------------------------------------------------------- resolving
+
+from ipcsim.io.output_folder import resolve_output_folder  # noqa: E402
+
+
+def test_default_folder_takes_append_str_and_refuses_a_dot_stem():
+    assert default_output_folder("a/run.txt", "v2") == Path("output") / "run_v2"
+    for name in ("...txt", "..toml", "a/...ipc"):
+        with pytest.raises(OutputFolderError, match="cannot name an output folder"):
+            default_output_folder(name)
+
+
+def test_resolving_normalises_before_checking(tmp_path, monkeypatch):
+    fill_with_a_run(tmp_path / "old")
+    scene = tmp_path / "scenes" / "s.txt"
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(OutputFolderError, match="old exists"):
+        resolve_output_folder("missing/../old", scene, mode="new")
+    assert not (tmp_path / "missing").exists()
+    assert resolve_output_folder("missing/../old", scene, mode="overwrite") == tmp_path / "old"
+    assert resolve_output_folder("new/run", scene, mode="new") == tmp_path / "new" / "run"
+    assert not (tmp_path / "new").exists()  # resolving writes nothing
+
+
+@pytest.mark.parametrize("where", [".", "..", "scenes", "scenes/.."])
+def test_the_current_and_the_scene_folder_and_those_above_are_refused(tmp_path, monkeypatch,
+                                                                       where):
+    (tmp_path / "scenes").mkdir()
+    work = tmp_path / "scenes" / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    with pytest.raises(OutputFolderError, match="current directory|scene's folder"):
+        resolve_output_folder(tmp_path / where if where != "." else ".",
+                              tmp_path / "scenes" / "s.txt", mode="overwrite")
+
+
+def test_resume_needs_an_existing_folder_and_may_be_the_scenes(tmp_path):
+    with pytest.raises(OutputFolderError, match="no such output folder"):
+        resolve_output_folder(tmp_path / "none", tmp_path / "s.txt", mode="resume")
+    assert resolve_output_folder(tmp_path, tmp_path / "scene.toml", mode="resume") == tmp_path
+
+
+def test_a_folder_under_a_file_cannot_be_created(tmp_path):
+    (tmp_path / "f").write_text("x")
+    with pytest.raises(OutputFolderError, match="not a folder"):
+        resolve_output_folder(tmp_path / "f" / "run", tmp_path / "s" / "s.txt", mode="new")

@@ -4,7 +4,7 @@ import os
 
 import pytest
 
-from ipcsim.io.atomic import (
+from ipcsim.atomic import (
     atomic_open,
     atomic_path,
     atomic_write_bytes,

@@ -1,0 +1,254 @@
+"""What every mesh reader checks before a mesh is used: a ``MeshError`` naming the file
+(and the scene line that asked for it) instead of a body with no surface, a vertex index
+that silently wraps around, or an overflow far downstream.
+
+* coordinates: finite and at most :data:`MAX_COORDINATE` in size (beyond that, volumes
+  and barrier distances overflow or lose every digit);
+* indices: every cell names vertices of the file; in an ASCII Gmsh file every node tag an
+  element names is a node of the file (meshio maps tag 0 or a negative tag onto some other
+  node by Python's negative indexing, so this is read from the file itself);
+* tetrahedra: positive volume, no two with the same four vertices, no face shared by more
+  than two of them or by two on the same side of it (they would overlap), and so a
+  boundary that is closed and consistently oriented, with at least one triangle;
+* triangle surfaces: at least one triangle, no triangle that repeats a vertex;
+* segments: none that joins a vertex to itself.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import MeshError
+from .surface import TET_FACES, _row_keys, boundary_triangles, tet_signed_volumes
+
+__all__ = [
+    "MAX_COORDINATE",
+    "check_gmsh_tags",
+    "check_indices",
+    "check_points",
+    "check_segments",
+    "check_tet_mesh",
+    "check_triangles",
+]
+
+MAX_COORDINATE = 1e9  # metres, or whatever unit the file is in before the shape's scale
+
+
+def _err(path, line, message: str) -> MeshError:
+    return MeshError(path, line, message)
+
+
+def check_points(points, path, line, *, bound: float | None = MAX_COORDINATE,
+                 what: str = "vertices") -> np.ndarray:
+    """(n, 3) float64 with finite coordinates of at most ``bound`` in size (None: any
+    finite size), else MeshError. A planar (n, 2) array gets z = 0."""
+    p = np.asarray(points, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] not in (2, 3):
+        raise _err(path, line, f"expected 3-D vertex coordinates, got shape {p.shape}")
+    if p.shape[1] == 2:  # planar file: z = 0
+        p = np.concatenate([p, np.zeros((len(p), 1))], axis=1)
+    bad = ~np.all(np.isfinite(p), axis=1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise _err(path, line, f"{int(bad.sum())} {what} have NaN/inf coordinates "
+                               f"(first: vertex {i + 1})")
+    if bound is not None and p.size and np.abs(p).max() > bound:
+        far = np.abs(p).max(axis=1) > bound
+        i = int(np.flatnonzero(far)[0])
+        raise _err(path, line, f"{int(far.sum())} {what} lie beyond {bound:.0e} from the "
+                               f"origin (first: vertex {i + 1} at {p[i].tolist()}); no scene "
+                               "is that large: is the file in another unit?")
+    return np.ascontiguousarray(p)
+
+
+def check_indices(cells, n_points: int, path, line, what: str) -> np.ndarray:
+    """Connectivity with every index in [0, n_points), else MeshError (reported 1-based);
+    ``what`` names one cell ('tet', 'triangle', 'segment')."""
+    c = np.asarray(cells, dtype=np.int64)
+    if c.size and (c.min() < 0 or c.max() >= n_points):
+        bad = np.flatnonzero(np.any((c < 0) | (c >= n_points), axis=1))
+        raise _err(path, line, f"{len(bad)} {what}s reference vertices outside 1..{n_points} "
+                               f"(first: {what} {bad[0] + 1})")
+    return c
+
+
+def check_tet_mesh(points: np.ndarray, tets: np.ndarray, path, line) -> None:
+    """Every tet positively oriented with non-negligible volume, no duplicate tets, every
+    face in at most two tets and on opposite sides of it, a non-empty closed boundary."""
+    if len(tets) == 0:
+        raise _err(path, line, "no tetrahedra in mesh")
+    _check_volumes(points, tets, path, line)
+    keys = _row_keys(np.sort(tets, axis=1))
+    _, first, counts = np.unique(keys, return_index=True, return_counts=True)
+    if (counts > 1).any():
+        dup = int(np.sort(first[counts > 1])[0])
+        raise _err(path, line, f"{int((counts - 1).sum())} tetrahedra repeat another one's "
+                               f"four vertices (first: tet {dup + 1}, vertices "
+                               f"{(tets[dup] + 1).tolist()}); the body would have no surface")
+    _check_faces(tets, path, line)
+    _check_boundary(boundary_triangles(tets), path, line)
+
+
+def _check_volumes(points, tets, path, line) -> None:
+    """Degenerate: 6|V| <= 1e-12 * (longest edge)^3 (repeated vertices, flat slivers);
+    inverted: det[x1 - x0, x2 - x0, x3 - x0] < 0."""
+    vol6 = 6.0 * tet_signed_volumes(points, tets)
+    x = points[tets]  # (m, 4, 3)
+    pairs = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
+    longest = np.linalg.norm(x[:, pairs[:, 0]] - x[:, pairs[:, 1]], axis=2).max(axis=1)
+    degenerate = np.abs(vol6) <= 1e-12 * longest**3
+    inverted = (vol6 < 0) & ~degenerate
+    if degenerate.any():
+        i = int(np.flatnonzero(degenerate)[0])
+        raise _err(path, line, f"{int(degenerate.sum())} tetrahedra have zero volume "
+                               f"(first: tet {i + 1}, vertices {(tets[i] + 1).tolist()})")
+    if inverted.any():
+        i = int(np.flatnonzero(inverted)[0])
+        raise _err(path, line, f"{int(inverted.sum())} tetrahedra are inverted (negative volume; "
+                               f"first: tet {i + 1}, vertices {(tets[i] + 1).tolist()})")
+
+
+def _permutation_parity(rows: np.ndarray) -> np.ndarray:
+    """0 for rows (of three distinct values) that are an even permutation of their sorted
+    order, 1 for odd ones: two faces with the same vertices and the same parity have the
+    same orientation."""
+    a, b, c = rows[:, 0], rows[:, 1], rows[:, 2]
+    inversions = (a > b).astype(np.int64) + (a > c) + (b > c)
+    return inversions % 2
+
+
+def _check_faces(tets: np.ndarray, path, line) -> None:
+    faces = tets[:, TET_FACES].reshape(-1, 3)  # outward for positively oriented tets
+    keys = _row_keys(np.sort(faces, axis=1))
+    order = np.argsort(keys, kind="stable")
+    _, start, counts = np.unique(keys[order], return_index=True, return_counts=True)
+    if (counts > 2).any():
+        f = int(order[start[counts > 2][0]])
+        raise _err(path, line, f"{int((counts > 2).sum())} faces are shared by more than two "
+                               f"tetrahedra (first: vertices {(faces[f] + 1).tolist()}, in tet "
+                               f"{f // 4 + 1}); the tetrahedra overlap")
+    pair = start[counts == 2]
+    one, two = order[pair], order[pair + 1]
+    parity = _permutation_parity(faces)
+    same = parity[one] == parity[two]
+    if same.any():
+        k = int(np.flatnonzero(same)[0])
+        raise _err(path, line, f"{int(same.sum())} faces have their two tetrahedra on the same "
+                               f"side (first: tets {one[k] // 4 + 1} and {two[k] // 4 + 1}); "
+                               "the tetrahedra overlap")
+
+
+def _check_boundary(triangles: np.ndarray, path, line) -> None:
+    """A boundary that is a closed, consistently oriented surface: every directed edge is
+    met exactly as often as its reverse."""
+    if len(triangles) == 0:
+        raise _err(path, line, "the tetrahedra have no boundary faces (no surface to collide)")
+    directed = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]],
+                               triangles[:, [2, 0]]])
+    top = int(directed.max()) + 1
+    forward = np.sort(directed[:, 0] * top + directed[:, 1])
+    backward = np.sort(directed[:, 1] * top + directed[:, 0])
+    if not np.array_equal(forward, backward):
+        raise _err(path, line, "the boundary of the tetrahedra is not a closed, consistently "
+                               "oriented surface")
+
+
+def check_triangles(points: np.ndarray, triangles: np.ndarray, path, line) -> None:
+    """A usable triangle surface: at least one triangle, no repeated vertex in a face."""
+    if len(triangles) == 0:
+        raise _err(path, line, "no triangles in surface mesh")
+    t = np.sort(triangles, axis=1)
+    rep = (t[:, 0] == t[:, 1]) | (t[:, 1] == t[:, 2])
+    if rep.any():
+        i = int(np.flatnonzero(rep)[0])
+        raise _err(path, line, f"{int(rep.sum())} degenerate triangles with a repeated vertex "
+                               f"(first: face {i + 1})")
+
+
+def check_segments(edges: np.ndarray, path, line) -> None:
+    """At least one segment, none joining a vertex to itself."""
+    if len(edges) == 0:
+        raise _err(path, line, "no segments ('s i j' lines) in segment mesh")
+    loops = edges[:, 0] == edges[:, 1]
+    if loops.any():
+        i = int(np.flatnonzero(loops)[0])
+        raise _err(path, line, f"degenerate segment {i + 1} joins a vertex to itself")
+
+
+# ----------------------------------------------------------------------------- Gmsh tags
+
+
+def _section(text: str, name: str) -> list[str] | None:
+    """The lines between ``$name`` and ``$Endname``, or None when there is no such section."""
+    begin = text.find(f"${name}")
+    if begin < 0:
+        return None
+    body = text.find("\n", begin) + 1
+    end = text.find(f"$End{name}", body)
+    return text[body:end if end >= 0 else len(text)].split("\n")
+
+
+def _ints(lines: list[str]) -> np.ndarray:
+    return np.array(" ".join(lines).split(), dtype=np.int64)
+
+
+def _tags_v41(nodes: list[str], elements: list[str]) -> tuple[np.ndarray, list]:
+    """Node tags and, per element block, its (elements, 1 + nodes) table (MSH 4.1)."""
+    tags, i = [], 1
+    for _ in range(int(nodes[0].split()[0])):
+        n = int(nodes[i].split()[3])  # entityDim entityTag parametric numNodesInBlock
+        tags.append(_ints(nodes[i + 1:i + 1 + n]))
+        i += 1 + 2 * n  # the tags, then one coordinate line per node
+    blocks, i = [], 1
+    for _ in range(int(elements[0].split()[0])):
+        n = int(elements[i].split()[3])
+        rows = _ints(elements[i + 1:i + 1 + n])
+        blocks.append(rows.reshape(n, -1) if n else rows.reshape(0, 2))
+        i += 1 + n
+    return (np.concatenate(tags) if tags else np.zeros(0, np.int64)), blocks
+
+
+def _tags_v22(nodes: list[str], elements: list[str]) -> tuple[np.ndarray, list]:
+    """Node tags and one (elements, 1 + nodes) table per element (MSH 2.2)."""
+    n = int(nodes[0])
+    tags = np.array([row.split(maxsplit=1)[0] for row in nodes[1:1 + n]], dtype=np.int64)
+    blocks = []
+    for row in elements[1:1 + int(elements[0])]:
+        v = [int(t) for t in row.split()]  # tag type ntags tag... node...
+        blocks.append(np.array([[v[0], *v[3 + v[2]:]]], dtype=np.int64))
+    return tags, blocks
+
+
+def check_gmsh_tags(path, line) -> None:
+    """In an ASCII Gmsh file (MSH 2.2 or 4.1), every node tag is positive and every node
+    an element names is a node of the file. Binary files are left to meshio."""
+    try:
+        text = Path(path).read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return  # the reader itself reports why the file cannot be read
+    fmt = _section(text, "MeshFormat")
+    nodes, elements = _section(text, "Nodes"), _section(text, "Elements")
+    if not fmt or nodes is None or elements is None or len(fmt[0].split()) < 2:
+        return
+    version, file_type = fmt[0].split()[:2]
+    if file_type != "0" or version not in ("2.2", "4.1"):
+        return
+    try:
+        read = _tags_v41 if version == "4.1" else _tags_v22
+        node_tags, blocks = read(nodes, elements)
+    except (ValueError, IndexError):
+        return  # malformed: meshio's reader names the problem
+    if len(node_tags) and node_tags.min() < 1:
+        raise _err(path, line, f"node tag {int(node_tags.min())} in $Nodes: Gmsh node tags "
+                               "are positive")
+    for block in blocks:
+        used = block[:, 1:]
+        missing = ~np.isin(used, node_tags)
+        if missing.any():
+            r = int(np.flatnonzero(missing.any(axis=1))[0])
+            tag = int(used[r][missing[r]][0])
+            raise _err(path, line, f"element {int(block[r, 0])} names node tag {tag}, which "
+                                   f"is not a node of the file ($Nodes has {len(node_tags)} "
+                                   "nodes)")
