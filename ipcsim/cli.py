@@ -106,7 +106,15 @@ def _add_check(sub) -> None:
     p.add_argument("--frames", metavar="OUT",
                    help="check every frame of the run in OUT for intersections and inverted "
                         "tets (exact predicates); exit 1 if any")
+    _add_set(p)
     p.set_defaults(func=_cmd_check)
+
+
+def _add_set(p) -> None:
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a scene value by its dotted TOML key, the value read as "
+                        "TOML (time.dt=0.01, contact.dhat=1e-3, shapes.0.material.E=1e6); "
+                        "repeatable; the resolved scene.toml records it")
 
 
 def _add_run(sub) -> None:
@@ -118,6 +126,7 @@ def _add_run(sub) -> None:
                        "output folder that cannot be used or written, 3 the simulation "
                        "failed (NaN, solver), 130 interrupted.")
     p.add_argument("scene", help="scene file (.txt or .toml)")
+    _add_set(p)
     p.add_argument("-o", "--output", metavar="DIR",
                    help="output folder (default: output/<scene-stem>, with _<appendStr> "
                         "when the scene sets appendStr)")

@@ -89,6 +89,21 @@ class NonFiniteError(SolverError):
         return f"{where}: the {self.quantity} is not finite (NaN or infinity) {culprit}"
 
 
+class RunFailed(SolverError):
+    """A run's simulation failed (NaN, solver); its frames, logs and run.json up to the
+    last completed step are written. ``__cause__`` is the solver's own error."""
+
+    def __init__(self, message: str, exit_status: int = 3):
+        super().__init__(message)
+        self.exit_status = exit_status
+
+
+class RunInterrupted(IpcsimError):
+    """A run stopped on Ctrl-C after a completed step; its folder can be resumed."""
+
+    exit_status = 130
+
+
 class OutputError(IpcsimError):
     """Output cannot be written (a full disk, a read-only folder); what was written before
     stays complete, and a run can be resumed once the cause is removed."""

@@ -37,11 +37,21 @@ from .solver.newton import NewtonResult, NewtonSolver
 from .solver.timing import PhaseTimer
 
 
+def _read_only(a: np.ndarray) -> np.ndarray:
+    view = a.view()
+    view.flags.writeable = False
+    return view
+
+
 @dataclass(frozen=True, eq=False)
 class State:
     """Everything the next step needs: positions, velocities, accelerations (n, 3), the
     step counter (the boundary conditions' clock, t = step·h), κ, and the previous step's
-    non-inertial displacement (warm starts 3 and 4). Replaced, never modified, by a step."""
+    non-inertial displacement (warm starts 3 and 4). Replaced, never modified, by a step.
+
+    ``positions``, ``velocities`` (m, m/s; (n, 3) float64, vertex order of the model)
+    and ``time`` (s) are the public, read-only face of it (``ipcsim.Simulation.state``).
+    """
 
     x: np.ndarray
     v: np.ndarray
@@ -49,16 +59,36 @@ class State:
     step: int = 0
     kappa: float = 0.0
     dx_elastic: np.ndarray | None = None
+    time: float = 0.0  # s: step·h
+
+    @property
+    def positions(self) -> np.ndarray:
+        """Vertex positions (n, 3) in m, a read-only view."""
+        return _read_only(self.x)
+
+    @property
+    def velocities(self) -> np.ndarray:
+        """Vertex velocities (n, 3) in m/s, a read-only view."""
+        return _read_only(self.v)
 
 
 @dataclass(frozen=True, eq=False)
 class StepReport:
+    """What one step did: ``row`` is its steps.csv row (docs/output-format.md: step,
+    time, newton_iterations, converged, contacts, energies, wall times ...), ``newton``
+    its newton.csv rows, ``result`` the Newton solver's own result."""
+
     row: dict  # the steps.csv row of the step
     newton: tuple[dict, ...]  # its newton.csv rows
     result: NewtonResult
 
 
 class Simulation:
+    """The time stepping of a built model: ``step()`` advances ``state`` by one time step
+    h = ``model.dt`` (implicit Euler or Newmark, as the scene says) and returns the
+    step's ``StepReport``. ``state`` is the current ``State``; a step replaces it.
+    ``linear_solver`` names a solver in place of the scene's (None: the scene's)."""
+
     def __init__(self, model, linear_solver: str | None = None):
         self.model = model
         self.threads = use_threads(model.n_vertices)
@@ -86,7 +116,7 @@ class Simulation:
         dx = checkpoint["dx_elastic"]
         self.state = State(checkpoint["x"].copy(), checkpoint["v"].copy(),
                            checkpoint["a"].copy(), checkpoint["step"], checkpoint["kappa"],
-                           None if dx is None else dx.copy())
+                           None if dx is None else dx.copy(), checkpoint["step"] * self.h)
 
     def _observe(self, row: dict) -> None:
         if self.on_iteration is not None:
@@ -177,7 +207,7 @@ class Simulation:
                                                 before.v, h)
         dx_elastic = x_new - (before.x + h * before.v + h * h * ctx.acceleration)
         return State(x_new, v_new, a_new, before.step + 1, objective.stiffness.kappa,
-                     dx_elastic)
+                     dx_elastic, (before.step + 1) * h)
 
     def _step_row(self, result: NewtonResult, objective, lag_updates: int, wall0) -> dict:
         model, st, final = self.model, self.state, result.final

@@ -202,6 +202,9 @@ def main(args) -> int:
         raise IpcsimError("check needs a scene file or --frames OUTPUT_FOLDER")
     # the simulation is set up too: it refuses what `run` would (intersecting or touching
     # shapes at the start, a vertex on or below a plane, an inverted tet, a missing solver)
-    scene, model, _ = load_and_build(args.scene, warn=lambda message: None)
+    from .run import overrides_of
+
+    scene, model, _ = load_and_build(args.scene, overrides=overrides_of(args.set),
+                                     warn=lambda message: None)
     report(scene, model)
     return 0

@@ -23,12 +23,15 @@ from .spec import (
     SceneSpec,
     ShapeSpec,
 )
+from .overrides import apply_overrides, parse_assignment
 from .toml_format import format_toml, parse_toml
 from .txt_format import format_txt, parse_txt
 from .validate import validate_scene
 
 __all__ = [
     "load_scene",
+    "apply_overrides",
+    "parse_assignment",
     "save_scene",
     "read_scene_text",
     "scene_text",
@@ -112,11 +115,14 @@ def _check_size(path, size: int) -> None:
                                      "makes many copies of a shape)")
 
 
-def load_scene(path) -> SceneSpec:
-    """Read a scene file (.txt/.ipc or .toml) into a validated ``SceneSpec``."""
+def load_scene(path, overrides=None) -> SceneSpec:
+    """Read a scene file (.txt/.ipc or .toml) into a validated ``SceneSpec``; with
+    ``overrides`` (dotted TOML key -> value, :mod:`ipcsim.scene.overrides`) those values
+    replace the file's, checked as the file's are."""
     fmt = scene_format(path)
     text = read_scene_text(path)
-    return parse_txt(text, path) if fmt == "txt" else parse_toml(text, path)
+    spec = parse_txt(text, path) if fmt == "txt" else parse_toml(text, path)
+    return apply_overrides(spec, overrides)
 
 
 def save_scene(spec: SceneSpec, path) -> Path:

@@ -195,6 +195,9 @@ class SceneSpec:
     ignored: tuple[str, ...] = field(default=(), compare=False)  # viewer-only keys seen
     # where each value was written: TOML key path (``solver.linear_solver``) -> line
     key_lines: Mapping[str, int] = field(default_factory=dict, compare=False, repr=False)
+    # the overrides applied to the file's values (``load_scene(path, overrides)``, ``ipcsim
+    # run --set``): dotted key as given -> value; their values are in the fields above
+    overrides: Mapping[str, object] = field(default_factory=dict, compare=False, repr=False)
 
     @property
     def n_steps(self) -> int:

@@ -52,7 +52,7 @@ from .spec import (
 from .txt_format import SOLVER_NAMES, UNSUPPORTED_SOLVERS, suggest, unit_normal
 from .validate import LINEAR_SOLVERS, line_of, validate_scene
 
-__all__ = ["parse_toml", "format_toml", "scene_to_dict", "locate_keys"]
+__all__ = ["parse_toml", "parse_toml_data", "format_toml", "scene_to_dict", "locate_keys"]
 
 _MAX_MATRIX_COPIES = 100_000
 
@@ -250,6 +250,11 @@ class _Reader:
         except ValueError as exc:  # an integer of thousands of digits
             raise SceneError(self.source, None, f"invalid TOML: {_q(exc, 80)}") from None
         self.lines = locate_keys(self.text)
+        return self.document(doc)
+
+    def document(self, doc: dict) -> SceneSpec:
+        """The scene of TOML data ``doc`` (as ``tomllib`` reads it), checked and
+        validated; ``self.lines`` names the lines where they are known."""
         self.table(doc, "", _TOP)
         v: dict = {}
         for table, keys in _SIMPLE.items():
@@ -552,6 +557,12 @@ def parse_toml(text: str, source=None) -> SceneSpec:
     return _Reader(text, source).parse()
 
 
+def parse_toml_data(doc: dict, source=None) -> SceneSpec:
+    """A scene from TOML data (nested dicts and lists, as ``tomllib`` returns them),
+    checked exactly as a TOML file is; messages name key paths but no lines."""
+    return _Reader("", source).document(doc)
+
+
 # ----------------------------------------------------------------------------- writer
 
 
@@ -680,6 +691,13 @@ def _literal(v) -> str:
     return tomli_w.dumps({"v": v})[len("v = "):-1]
 
 
+def _override_literal(v) -> str:
+    try:
+        return " ".join(_literal(v).split())
+    except (TypeError, ValueError):  # a value the reader would have refused
+        return repr(v)
+
+
 def _emit_table(header: str, table: dict, out: list[str]) -> None:
     out.append(header)
     subtables = []
@@ -707,6 +725,9 @@ def format_toml(spec: SceneSpec, path=None) -> str:
     folder = paths.absolute(path).parent if path is not None else paths.absolute(".")
     doc = scene_to_dict(spec, folder)
     out: list[str] = [_HEADER_COMMENT]
+    if spec.overrides:  # the values are below; this says which were not the file's
+        out.insert(1, "# overrides of the scene file's values: " + ", ".join(
+            f"{k} = {_override_literal(v)}" for k, v in spec.overrides.items()) + "\n")
     for name, value in doc.items():
         if isinstance(value, dict):
             _emit_table(f"[{name}]", value, out)
