@@ -32,6 +32,12 @@ def _cmd_run(args) -> int:
     return run.main(args)
 
 
+def _cmd_sweep(args) -> int:
+    from .commands import sweep
+
+    return sweep.main(args)
+
+
 def _cmd_convert(args) -> int:
     from .commands import convert
 
@@ -84,7 +90,8 @@ def build_parser() -> argparse.ArgumentParser:
         prog="ipcsim",
         description="Incremental Potential Contact simulator driven by scene files "
         "(the original IPC text format or TOML).",
-        epilog="Exit status: 0 success, 1 check --frames or compare found a difference, "
+        epilog="Exit status: 0 success, 1 check --frames or compare found a difference "
+        "(sweep: some runs failed), "
         "2 bad input or an output folder that cannot be used, 3 the simulation failed, "
         "130 interrupted.",
     )
@@ -92,6 +99,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     _add_check(sub)
     _add_run(sub)
+    _add_sweep(sub)
     _add_convert(sub)
     _add_render(sub)
     _add_compare(sub)
@@ -147,6 +155,30 @@ def _add_run(sub) -> None:
     p.add_argument("-v", "--verbose", action="store_true",
                    help="print every Newton iteration as it happens")
     p.set_defaults(func=_cmd_run)
+
+
+def _add_sweep(sub) -> None:
+    p = sub.add_parser("sweep", help="run a study: many runs of a scene with values varied, "
+                       "on a Dask cluster; writes study.csv and a chart",
+                       description="Run a study file: its runs on a local Dask cluster of "
+                       "single-threaded worker processes (one per core), an existing "
+                       "cluster (--scheduler) or this process (--serial); one folder per "
+                       "run, study.csv (a row per run) and study.png. Re-running skips "
+                       "finished runs and resumes interrupted ones. Exit status: 0 all runs "
+                       "finished, 1 some runs failed, 2 bad input or Dask missing, 130 "
+                       "interrupted.")
+    p.add_argument("study", help="study file (.toml)")
+    p.add_argument("-o", "--output", metavar="DIR",
+                   help="study folder (default: [study] output, else output/<study-stem>)")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=_positive_int, metavar="N",
+                       help="worker processes of the local cluster (default: one per core)")
+    where.add_argument("--scheduler", metavar="ADDRESS",
+                       help="use the Dask cluster at this scheduler (tcp://host:8786)")
+    where.add_argument("--serial", action="store_true",
+                       help="run the runs one after the other in this process (no Dask)")
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+    p.set_defaults(func=_cmd_sweep)
 
 
 def _add_convert(sub) -> None:

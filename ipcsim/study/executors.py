@@ -1,0 +1,188 @@
+"""Where a study's runs execute: on Dask distributed (a ``LocalCluster`` of single-
+threaded worker processes, or an existing cluster by its scheduler's address), or one
+after the other in this process (``--serial``); and the study's progress bar.
+
+Each executor's ``results(tasks, progress)`` yields ``(task, row)`` as runs finish. A
+worker that dies (killed, out of memory) is replaced by its nanny and Dask runs its task
+again elsewhere; the run then resumes from its checkpoint. A task that killed workers
+too often comes back as a failed row (``KilledWorker``); re-running the study resumes it.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import sys
+import time
+
+from ..errors import IpcsimError, excerpt, one_line
+from .runs import WORKER_ENV, RunTask, describe, execute
+
+__all__ = ["SerialExecutor", "DaskExecutor", "StudyProgress", "INSTALL_HINT", "default_workers"]
+
+INSTALL_HINT = ('ipcsim sweep runs on Dask, which is not installed: pip install '
+                '"ipcsim[cluster]" (or run the study in this process with --serial)')
+POLL_S = 0.25
+
+
+def default_workers() -> int:
+    """One worker per core this process may use."""
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0)))
+    return max(1, os.cpu_count() or 1)
+
+
+def _failed(task: RunTask, error: str) -> dict:
+    return {"run": task.name, **task.parameters, "status": "failed",
+            "error": one_line(error, 300), "folder": task.folder}
+
+
+class SerialExecutor:
+    """The runs one after the other in this process (each on one numba thread)."""
+
+    name = "this process"
+
+    def __enter__(self):
+        os.environ.setdefault("IPCSIM_THREADS", WORKER_ENV["IPCSIM_THREADS"])
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def results(self, tasks, progress):
+        for task in tasks:
+            progress.update(running=1)
+            yield task, execute(task)
+
+
+class DaskExecutor:
+    """The runs as Dask tasks: ``workers`` single-threaded processes of a new
+    ``LocalCluster`` (default one per core), or the cluster at ``scheduler``."""
+
+    def __init__(self, workers: int | None = None, scheduler: str | None = None):
+        self.workers, self.scheduler = workers, scheduler
+        self.client = self.cluster = None
+
+    @property
+    def name(self) -> str:
+        if self.scheduler:
+            return f"the Dask cluster at {self.scheduler}"
+        return f"a local Dask cluster of {self.workers or default_workers()} worker processes"
+
+    def __enter__(self):
+        try:
+            from dask.distributed import Client, LocalCluster
+        except ImportError:
+            raise IpcsimError(INSTALL_HINT) from None
+        try:
+            if self.scheduler:
+                self.client = Client(self.scheduler, timeout="20s")
+            else:
+                self.cluster = LocalCluster(
+                    n_workers=self.workers or default_workers(), threads_per_worker=1,
+                    processes=True, env=dict(WORKER_ENV), dashboard_address=None,
+                    silence_logs=logging.ERROR)
+                self.client = Client(self.cluster)
+        except (OSError, TimeoutError) as exc:
+            self.__exit__()
+            where = self.scheduler or "a local cluster"
+            raise IpcsimError(f"cannot start or reach {where}: "
+                              f"{excerpt(one_line(str(exc)), 200)}") from None
+        return self
+
+    def __exit__(self, *exc):
+        for thing in (self.client, self.cluster):
+            if thing is not None:
+                try:
+                    thing.close()
+                except Exception:  # noqa: BLE001  (a cluster going down is no news)
+                    pass
+        self.client = self.cluster = None
+        return False
+
+    def _running(self, pending) -> int:
+        try:
+            keys = {k for ks in self.client.processing().values() for k in ks}
+            slots = sum(self.client.nthreads().values())
+        except Exception:  # noqa: BLE001  (the scheduler busy or restarting a worker)
+            return 0
+        return min(slots, sum(1 for f in pending if f.key in keys))
+
+    def results(self, tasks, progress):
+        from dask.distributed import wait
+
+        futures = {self.client.submit(execute, t, key=f"ipcsim-run-{t.name}-{t.digest[:16]}",
+                                      pure=False): t for t in tasks}
+        pending = dict(futures)
+        try:
+            while pending:
+                try:
+                    done, _ = wait(list(pending), timeout=POLL_S, return_when="FIRST_COMPLETED")
+                except TimeoutError:
+                    done = ()
+                for f in done:
+                    task = pending.pop(f)
+                    try:
+                        row = f.result()
+                    except Exception as exc:  # noqa: BLE001  (KilledWorker, a lost worker)
+                        row = _failed(task, f"{type(exc).__name__}: {exc}")
+                    yield task, row
+                progress.update(running=self._running(pending))
+        finally:
+            if pending:
+                self.client.cancel(list(pending))
+
+
+class StudyProgress:
+    """One bar for the study: runs done of all, running, failed and the time left (on a
+    terminal); otherwise a line per finished run; nothing with ``mode="off"``."""
+
+    def __init__(self, total: int, done: int, mode: str, stream=None):
+        self.total, self.done, self.failed, self.running = total, done, 0, 0
+        self.skipped = done
+        self.mode, self.stream = mode, stream or sys.stdout
+        self.started = time.perf_counter()
+        self._bar = None
+        if mode == "bar":
+            from rich.console import Console
+            from rich.progress import BarColumn, Progress, TextColumn
+
+            self._bar = Progress(
+                TextColumn("runs {task.completed}/{task.total}"), BarColumn(),
+                TextColumn("running {task.fields[running]}  failed {task.fields[failed]}  "
+                           "ETA {task.fields[eta]}"),
+                console=Console(file=self.stream), transient=False)
+            self._task = self._bar.add_task("study", total=total, completed=done, running=0,
+                                            failed=0, eta="-")
+            self._bar.start()
+
+    def eta(self) -> str:
+        ran = self.done - self.skipped
+        if ran <= 0:
+            return "-"
+        left = (time.perf_counter() - self.started) / ran * (self.total - self.done)
+        m, s = divmod(int(math.ceil(left)), 60)
+        return f"{m // 60}:{m % 60:02d}:{s:02d}" if m >= 60 else f"{m}:{s:02d}"
+
+    def update(self, running: int | None = None) -> None:
+        if running is not None:
+            self.running = running
+        if self._bar is not None:
+            self._bar.update(self._task, completed=self.done, running=self.running,
+                             failed=self.failed, eta=self.eta())
+
+    def finished(self, task: RunTask, row: dict) -> None:
+        self.done += 1
+        self.failed += row.get("status") != "ok"
+        self.update()
+        if self.mode == "lines":
+            what = row.get("status") if row.get("status") == "ok" else \
+                f"failed: {row.get('error', '')}"
+            print(f"{describe(task)}: {what} — {self.done}/{self.total} done, "
+                  f"{self.failed} failed, ETA {self.eta()}", file=self.stream, flush=True)
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.stop()
+            self._bar = None

@@ -1,0 +1,297 @@
+"""The study file: a base scene, the parameters to vary, what to record, an optional
+reference run and a chart (docs/user-guide.md, "Studies").
+
+::
+
+    [study]
+    scene = "drop.toml"               # the base scene, relative to this file
+    output = "output/drop_study"      # optional (default output/<study-file-stem>)
+    steps = 40                        # optional: stop every run after this step
+    set = { "time.duration" = 0.4 }   # optional: overrides of every run
+
+    [[vary]]                          # an axis: its keys change together (a zip)
+    "time.dt" = [0.02, 0.01, 0.005]
+
+    [[vary]]                          # axes combine as a product
+    "contact.dhat" = { start = 1e-3, stop = 1e-2, num = 3, spacing = "log" }
+
+    [record]
+    columns = ["newton_iterations", "min_distance"]   # steps.csv columns
+    summaries = ["min", "max", "mean", "final"]       # (the default)
+    check_frames = true               # the exact checker over every frame
+    final_state = true                # (the default)
+
+    [reference]                       # optional: errors against this run
+    set = { "time.dt" = 0.001 }
+
+    [chart]
+    x = "time.dt"
+    y = "newton_iterations"           # any study.csv column
+    log_x = true
+
+A range is ``{start, stop, num}`` (``num`` points from start to stop, both included;
+``spacing = "log"`` for a geometric series) or ``{start, stop, step}`` (start, start +
+step, ... up to stop). Every mistake is a ``SceneError`` naming the study file, the line
+and the key.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..errors import SceneError, excerpt
+from ..scene.toml_format import locate_keys
+from ..scene.txt_format import suggest
+
+__all__ = ["StudySpec", "Axis", "Record", "Chart", "load_study", "SUMMARIES"]
+
+SUMMARIES = ("min", "max", "mean", "final")
+MAX_RUNS = 100_000
+_TOP = ("study", "vary", "record", "reference", "chart")
+
+
+@dataclass(frozen=True)
+class Axis:
+    """Keys that change together: ``values[i]`` holds the i-th value of each key."""
+
+    keys: tuple[str, ...]
+    values: tuple[tuple, ...]
+
+
+@dataclass(frozen=True)
+class Record:
+    """What each run's study.csv row holds beyond its parameters, status and cost."""
+
+    columns: tuple[str, ...] = ()
+    summaries: tuple[str, ...] = SUMMARIES
+    check_frames: bool = False
+    final_state: bool = True
+
+
+@dataclass(frozen=True)
+class Chart:
+    x: str
+    y: str = "wall_s"
+    log_x: bool | None = None  # None: log when the values span a factor of 10 or more
+    log_y: bool = False
+
+
+@dataclass(frozen=True)
+class StudySpec:
+    path: Path  # the study file, absolute
+    scene: Path  # the base scene, absolute
+    axes: tuple[Axis, ...]
+    record: Record
+    chart: Chart
+    output: Path | None = None  # absolute
+    steps: int | None = None
+    fixed: dict = field(default_factory=dict)  # overrides of every run
+    reference: dict | None = None  # the reference run's overrides (over ``fixed``)
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        """Every varied key, axis by axis."""
+        return tuple(k for a in self.axes for k in a.keys)
+
+    def points(self) -> list[dict]:
+        """Every run's overrides of the varied keys: the product of the axes."""
+        out = [{}]
+        for axis in self.axes:
+            out = [{**p, **dict(zip(axis.keys, values))} for p in out
+                   for values in axis.values]
+        return out
+
+
+class _Reader:
+    def __init__(self, path: Path, text: str):
+        self.path, self.lines = path, locate_keys(text)
+
+    def fail(self, key: str, message: str):
+        line = None
+        while key and line is None:
+            line = self.lines.get(key)
+            cut = max(key.rfind("."), key.rfind("["))
+            key = key[:cut] if cut > 0 else ""
+        raise SceneError(self.path, line, message)
+
+    def table(self, data, key: str, allowed) -> dict:
+        if not isinstance(data, dict):
+            self.fail(key, f"{key} must be a table")
+        for k in data:
+            if k not in allowed:
+                self.fail(f"{key}.{k}", f"unknown key {key}.{excerpt(k)}"
+                                        f"{suggest(k, allowed)}")
+        return data
+
+    def number(self, v, key: str) -> float | int:
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            self.fail(key, f"{key} must be a finite number, got {excerpt(repr(v))}")
+        return v
+
+    def flag(self, v, key: str) -> bool:
+        if not isinstance(v, bool):
+            self.fail(key, f"{key} must be true or false, got {excerpt(repr(v))}")
+        return v
+
+    def values(self, v, key: str) -> tuple:
+        """A list of values, or a range table."""
+        if isinstance(v, list):
+            if not v:
+                self.fail(key, f"{key} lists no values")
+            return tuple(v)
+        if not isinstance(v, dict):
+            self.fail(key, f"{key} must be a list of values or a range "
+                           "{start, stop, num} / {start, stop, step}")
+        t = self.table(v, key, ("start", "stop", "num", "step", "spacing"))
+        if "start" not in t or "stop" not in t or ("num" in t) == ("step" in t):
+            self.fail(key, f"{key}: a range needs start, stop and one of num or step")
+        start, stop = self.number(t["start"], f"{key}.start"), self.number(t["stop"],
+                                                                           f"{key}.stop")
+        if "step" in t:
+            return self._stepped(start, stop, self.number(t["step"], f"{key}.step"), key)
+        num = t["num"]
+        if isinstance(num, bool) or not isinstance(num, int) or not 1 <= num <= MAX_RUNS:
+            self.fail(f"{key}.num", f"{key}.num must be a whole number from 1 to {MAX_RUNS}")
+        spacing = t.get("spacing", "linear")
+        if spacing not in ("linear", "log"):
+            self.fail(f"{key}.spacing", f"{key}.spacing must be \"linear\" or \"log\"")
+        if spacing == "log" and not (start > 0 and stop > 0):
+            self.fail(key, f"{key}: a log range needs start and stop above 0")
+        if num == 1:
+            return (start,)
+        if spacing == "log":
+            return tuple(start * (stop / start) ** (i / (num - 1)) for i in range(num))
+        return tuple(start + (stop - start) * i / (num - 1) for i in range(num))
+
+    def _stepped(self, start, stop, step, key: str) -> tuple:
+        if step == 0 or (stop - start) / step < 0:
+            self.fail(f"{key}.step", f"{key}.step must lead from start to stop")
+        n = math.floor((stop - start) / step * (1 + 1e-12)) + 1
+        if n > MAX_RUNS:
+            self.fail(key, f"{key} makes {n} values; at most {MAX_RUNS}")
+        ints = all(isinstance(x, int) for x in (start, stop, step))
+        return tuple((start + i * step) if ints else float(start + i * step) for i in range(n))
+
+
+def _flat(table: dict, is_leaf=lambda v: not isinstance(v, dict), prefix="") -> dict:
+    """``{"time": {"dt": x}}`` (TOML's reading of an unquoted ``time.dt = x``) as
+    ``{"time.dt": x}``; ``is_leaf`` says which tables are values (a range)."""
+    out = {}
+    for k, v in table.items():
+        name = f"{prefix}.{k}" if prefix else str(k)
+        if is_leaf(v):
+            out[name] = v
+        else:
+            out.update(_flat(v, is_leaf, name))
+    return out
+
+
+def _is_range_or_value(v) -> bool:
+    return not isinstance(v, dict) or "start" in v or "stop" in v
+
+
+def _axes(r: _Reader, data) -> tuple[Axis, ...]:
+    if not isinstance(data, list) or not data or not all(isinstance(a, dict) for a in data):
+        r.fail("vary", "a study needs at least one [[vary]] table of parameters")
+    axes = []
+    for i, a in enumerate(data):
+        key = f"vary[{i}]"
+        a = _flat(a, _is_range_or_value)
+        if not a:
+            r.fail(key, f"{key} names no parameter")
+        columns = [r.values(v, f"{key}.{k}") for k, v in a.items()]
+        if len({len(c) for c in columns}) > 1:
+            r.fail(key, f"{key}: keys of one [[vary]] table change together, so they need "
+                        f"as many values each (got {', '.join(str(len(c)) for c in columns)})"
+                        "; put them in tables of their own for every combination")
+        axes.append(Axis(tuple(a), tuple(zip(*columns))))
+    seen: list[str] = [k for a in axes for k in a.keys]
+    twice = sorted({k for k in seen if seen.count(k) > 1})
+    if twice:
+        r.fail("vary", f"'{excerpt(twice[0])}' is varied in two [[vary]] tables")
+    if math.prod(len(a.values) for a in axes) > MAX_RUNS:
+        r.fail("vary", f"the study makes more than {MAX_RUNS} runs")
+    return tuple(axes)
+
+
+def _record(r: _Reader, data) -> Record:
+    from ..io.csv_log import STEP_COLUMNS
+
+    t = r.table(data, "record", ("columns", "summaries", "check_frames", "final_state"))
+    columns = t.get("columns", [])
+    if not isinstance(columns, list):
+        r.fail("record.columns", "record.columns must be a list of steps.csv columns")
+    for c in columns:
+        if c not in STEP_COLUMNS:
+            r.fail("record.columns", f"record.columns: '{excerpt(c)}' is no steps.csv column"
+                                     f"{suggest(str(c), STEP_COLUMNS)}")
+    summaries = t.get("summaries", list(SUMMARIES))
+    if not isinstance(summaries, list) or not summaries or any(
+            s not in SUMMARIES for s in summaries):
+        r.fail("record.summaries", f"record.summaries must list some of {', '.join(SUMMARIES)}")
+    return Record(tuple(columns), tuple(summaries),
+                  r.flag(t.get("check_frames", False), "record.check_frames"),
+                  r.flag(t.get("final_state", True), "record.final_state"))
+
+
+def _chart(r: _Reader, data, keys) -> Chart:
+    t = r.table(data, "chart", ("x", "y", "log_x", "log_y"))
+    x = t.get("x", keys[0])
+    if x not in keys:
+        r.fail("chart.x", f"chart.x must be a varied key ({', '.join(keys)}), got "
+                          f"'{excerpt(x)}'")
+    y = t.get("y", "wall_s")
+    if not isinstance(y, str):
+        r.fail("chart.y", "chart.y must name a study.csv column")
+    log_x = t.get("log_x")
+    return Chart(x, y, None if log_x is None else r.flag(log_x, "chart.log_x"),
+                 r.flag(t.get("log_y", False), "chart.log_y"))
+
+
+def _overrides(r: _Reader, data, key: str) -> dict:
+    if not isinstance(data, dict):
+        r.fail(key, f"{key} must be a table of dotted scene keys and values")
+    return _flat(data)
+
+
+def load_study(path) -> StudySpec:
+    """Read and check a study file (the scene keys are checked when runs are planned)."""
+    path = Path(path).absolute()
+    try:
+        text = path.read_text(encoding="utf-8")
+        doc = tomllib.loads(text)
+    except FileNotFoundError:
+        raise SceneError(path, None, "study file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SceneError(path, None, f"cannot read the study file ({exc})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(path, None, f"invalid TOML: {exc}") from None
+    r = _Reader(path, text)
+    r.table(doc, "", _TOP)
+    study = r.table(doc.get("study", {}), "study", ("scene", "output", "steps", "set"))
+    if not isinstance(study.get("scene"), str):
+        r.fail("study", "[study] needs scene = \"path of the base scene\"")
+    scene = (path.parent / study["scene"]).absolute()
+    if not scene.is_file():
+        r.fail("study.scene", f"study.scene: '{excerpt(study['scene'], 80)}' not found "
+                              f"(relative to {path.parent})")
+    steps = study.get("steps")
+    if steps is not None and (isinstance(steps, bool) or not isinstance(steps, int)
+                              or steps < 1):
+        r.fail("study.steps", "study.steps must be a whole number >= 1")
+    output = study.get("output")
+    if output is not None and not isinstance(output, str):
+        r.fail("study.output", "study.output must be a folder path")
+    axes = _axes(r, doc.get("vary"))
+    keys = tuple(k for a in axes for k in a.keys)
+    reference = None
+    if "reference" in doc:
+        ref = r.table(doc["reference"], "reference", ("set",))
+        reference = _overrides(r, ref.get("set", {}), "reference.set")
+    return StudySpec(path, scene, axes, _record(r, doc.get("record", {})),
+                     _chart(r, doc.get("chart", {}), keys),
+                     (path.parent / output).absolute() if output else None, steps,
+                     _overrides(r, study.get("set", {}), "study.set"), reference)
