@@ -122,8 +122,8 @@ class _Reader:
             self.fail(key, f"{key} must be a table")
         for k in data:
             if k not in allowed:
-                self.fail(f"{key}.{k}", f"unknown key {key}.{excerpt(k)}"
-                                        f"{suggest(k, allowed)}")
+                full = f"{key}.{k}" if key else k
+                self.fail(full, f"unknown key {excerpt(full, 80)}{suggest(k, allowed)}")
         return data
 
     def number(self, v, key: str) -> float | int:

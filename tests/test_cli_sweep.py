@@ -1,0 +1,180 @@
+"""``ipcsim sweep``: a study of six tiny runs on a local Dask cluster of two worker
+processes survives one worker killed (SIGKILL) mid-run, and, re-run, gives the same
+study.csv as the same study run serially.
+
+"The same" means: every run finished, and for each run the same steps, the same Newton
+iteration count and bitwise the same final positions (study.csv's
+``final_positions_sha256``, a SHA-256 of the float64 bytes of the last state)."""
+
+from __future__ import annotations
+
+import csv
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+from generated import write_box_msh
+
+from ipcsim.cli import main
+from ipcsim.study import load_study
+
+STUDY = """\
+[study]
+scene = "drop.toml"
+
+[[vary]]
+"time.dt" = [0.02, 0.01]
+
+[[vary]]
+"contact.dhat" = [1e-3, 3e-3, 1e-2]
+
+[record]
+columns = ["newton_iterations", "min_distance"]
+check_frames = true
+
+[chart]
+x = "contact.dhat"
+y = "newton_iterations"
+"""
+
+SCENE = """\
+[time]
+duration = 0.5
+dt = 0.01
+
+[contact]
+self_collision = false
+
+[[shapes]]
+path = "cube.msh"
+translation = [0.0, 0.02, 0.0]
+
+[[planes]]
+kind = "ground"
+height = 0.0
+"""
+
+
+@pytest.fixture
+def study(tmp_path, monkeypatch):
+    monkeypatch.setenv("IPCSIM_THREADS", "1")  # what --serial sets, undone after the test
+    write_box_msh(tmp_path / "cube.msh")
+    (tmp_path / "drop.toml").write_text(SCENE)
+    path = tmp_path / "study.toml"
+    path.write_text(STUDY)
+    return path
+
+
+def _rows(folder):
+    with open(folder / "study.csv", newline="") as f:
+        return {r["run"]: r for r in csv.DictReader(f)}
+
+
+def _kill_a_worker_mid_run(proc, out, timeout=240.0):
+    """SIGKILL the worker process that is writing a run's steps.csv, a few steps into
+    the run; returns that run's folder."""
+    import psutil
+
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        assert proc.poll() is None, proc.communicate()
+        for child in psutil.Process(proc.pid).children(recursive=True):
+            try:
+                files = [f.path for f in child.open_files()]
+            except psutil.Error:
+                continue
+            for path in files:
+                if path.endswith("steps.csv") and str(out) in path:
+                    with open(path) as f:
+                        written = len(f.read().splitlines()) - 1
+                    if 3 <= written <= 15:  # mid-run: runs take 25 or 50 steps
+                        child.send_signal(signal.SIGKILL)
+                        return path.rsplit("/", 1)[0]
+        time.sleep(0.01)
+    raise AssertionError("no run was seen in progress")
+
+
+def test_a_study_survives_a_killed_worker_and_equals_a_serial_run(study, tmp_path):
+    import json
+
+    serial, cluster = tmp_path / "serial", tmp_path / "cluster"
+    assert main(["sweep", str(study), "-o", str(serial), "--serial", "-q"]) == 0
+
+    proc = subprocess.Popen([sys.executable, "-m", "ipcsim.cli", "sweep", str(study), "-o",
+                             str(cluster), "--workers", "2", "-q"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        killed = _kill_a_worker_mid_run(proc, cluster)
+        _, err = proc.communicate(timeout=300)
+    finally:
+        proc.kill()
+    assert proc.returncode in (0, 1), err.decode()
+
+    # re-run: what is finished is skipped, what is not resumes from its checkpoint
+    assert main(["sweep", str(study), "-o", str(cluster), "--workers", "2", "-q"]) == 0
+    info = json.loads((tmp_path / killed / "run.json").read_text())
+    assert info["status"] == "ok" and info["resumed_from_step"] > 0
+
+    a, b = _rows(serial), _rows(cluster)
+    assert sorted(a) == sorted(b) == [str(i) for i in range(6)]
+    for run in a:
+        assert a[run]["status"] == b[run]["status"] == "ok", (a[run], b[run])
+        for column in ("time.dt", "contact.dhat", "steps_done", "newton_iterations",
+                       "final_positions_sha256", "frames_clean"):
+            assert a[run][column] == b[run][column], (run, column)
+        assert a[run]["frames_clean"] == "True"
+    assert len({r["final_positions_sha256"] for r in a.values()}) == 6
+    assert (cluster / "study.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_a_failed_run_is_a_row_and_the_study_exits_1(study, tmp_path, capsys):
+    study.write_text(STUDY.replace('"contact.dhat" = [1e-3, 3e-3, 1e-2]',
+                                   '"material.E" = [1e5, 1e308]')
+                     .replace('"time.dt" = [0.02, 0.01]', '"time.dt" = [0.02]')
+                     .replace('x = "contact.dhat"', 'x = "material.E"')
+                     .replace("[study]", "[study]\nsteps = 3"))
+    out = tmp_path / "out"
+    assert main(["sweep", str(study), "-o", str(out), "--serial", "-q"]) == 1
+    rows = _rows(out)
+    assert rows["0"]["status"] == "ok" and rows["0"]["steps_done"] == "3"
+    assert rows["1"]["status"] == "failed" and "not finite" in rows["1"]["error"]
+
+
+@pytest.mark.parametrize("change, says", [
+    (('"time.dt" = [0.02, 0.01]', '"time.dtt" = [0.02, 0.01]'),
+     "study.toml: run 0 (time.dtt = 0.02, contact.dhat = 0.001): "),
+    (('"time.dt" = [0.02, 0.01]', '"time.dt" = [0.02, 0.01]\n"contact.epsv" = [1e-3]'),
+     "study.toml:4: vary[0]: keys of one [[vary]] table change together"),
+    (("[record]", "[recrod]"), "study.toml:10: unknown key recrod (did you mean 'record'?)"),
+    (('columns = ["newton_iterations", "min_distance"]', 'columns = ["newton"]'),
+     "'newton' is no steps.csv column"),
+])
+def test_a_bad_study_exits_2_naming_the_file_and_key(study, tmp_path, capsys, change, says):
+    study.write_text(STUDY.replace(*change))
+    assert main(["sweep", str(study), "-o", str(tmp_path / "out"), "--serial"]) == 2
+    err = capsys.readouterr().err
+    assert says in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_without_dask_the_study_says_how_to_install_it(study, tmp_path, capsys,
+                                                       monkeypatch):
+    monkeypatch.setitem(sys.modules, "dask.distributed", None)  # import fails
+    assert main(["sweep", str(study), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and 'pip install "ipcsim[cluster]"' in err
+
+
+def test_ranges_zips_and_products(tmp_path, study):
+    study.write_text(STUDY.replace('"time.dt" = [0.02, 0.01]',
+                                   'time.dt = { start = 0.01, stop = 0.03, step = 0.01 }\n'
+                                   '"material.E" = { start = 1e4, stop = 1e6, num = 3, '
+                                   'spacing = "log" }'))
+    spec = load_study(study)
+    points = spec.points()
+    assert len(points) == 9 and spec.keys == ("time.dt", "material.E", "contact.dhat")
+    assert [p["time.dt"] for p in points[::3]] == pytest.approx([0.01, 0.02, 0.03])
+    assert [p["material.E"] for p in points[::3]] == pytest.approx([1e4, 1e5, 1e6])
+    assert [p["contact.dhat"] for p in points[:3]] == [1e-3, 3e-3, 1e-2]
