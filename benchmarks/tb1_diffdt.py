@@ -3,30 +3,27 @@
     python -m benchmarks.tb1_diffdt [--h 0.002 0.005 ...] [--out DIR] [--steps N] [--smoke]
 
 Runs ``paperExamples/tb1_diffDt/rodsTwist_E1e4_dt<h>.txt`` of the original program's
-examples (four twisted rods, 2,520 vertices, 6,888 tets, 6 s simulated) with
-``ipcsim run`` into DIR/dt<h>, checks every frame with the exact checker, and prints
-ipcsim's figures next to the paper's: average and largest active contacts per step,
-seconds and Newton iterations per step, and the totals. An output folder that already
-holds a finished run is read instead of run again (delete it to rerun). Seconds are the
-steps' wall times from steps.csv, so numba compilation at start-up is excluded.
-``--smoke`` runs h = 0.1 for three steps into a temporary folder (CI).
+examples (four twisted rods, 2,520 vertices, 6,888 tets, 6 s simulated; the ten scripts
+differ only in h) as one study (``ipcsim.study``): the h = 0.002 script with ``time.dt``
+varied, every frame checked with the exact checker, into DIR (a folder per run under
+DIR/runs, DIR/study.csv), on a local Dask cluster (``--workers N``) or one run after the
+other (``--serial``). Prints ipcsim's figures next to the paper's: average and largest
+active contacts per step, seconds and Newton iterations per step, and the totals. A run
+that already finished in DIR is read instead of run again, an interrupted one resumes.
+Seconds are the steps' wall times from steps.csv, so numba compilation at start-up is
+excluded. ``--smoke`` runs h = 0.1 for three steps into a temporary folder (CI).
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
-import json
 import sys
 import tempfile
 from pathlib import Path
 
-import numpy as np
-
-from ipcsim.cli import main as ipcsim_main
-from ipcsim.io.csv_log import read_csv
-
-from .scene_table import summarise
+from ipcsim.study import Record, make_study, run_study
+from ipcsim.study.executors import DaskExecutor, SerialExecutor
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 SCRIPTS = REPO_ROOT.parent / "shared" / "ipc-examples" / "input" / "paperExamples" / "tb1_diffDt"
@@ -52,29 +49,30 @@ def script_for(h: str) -> Path:
     return SCRIPTS / f"rodsTwist_E1e4_dt{h}.txt"
 
 
-def _finished(out: Path) -> bool:
-    info = out / "run.json"
-    if not info.is_file():
-        return False
-    run = json.loads(info.read_text())
-    return run.get("status") == "ok" and run.get("steps_done") == run.get("steps_planned")
+RECORD = Record(columns=("contacts_total", "newton_iterations", "wall_s", "hit_iteration_cap"),
+                summaries=("mean", "max"), check_frames=True, final_state=False)
 
 
-def measure(h: str, out: Path, steps: int | None = None) -> dict:
-    """Run (or read) the script for step size ``h`` in ``out`` and summarise it."""
-    if not _finished(out):
-        cmd = ["run", str(script_for(h)), "-o", str(out), "-q"]
-        cmd += ["--resume"] if (out / "checkpoint.npz").is_file() else ["--overwrite"]
-        if steps:
-            cmd += ["--steps", str(steps)]
-        status = ipcsim_main(cmd)
-        if status != 0:
-            raise SystemExit(f"ipcsim run {script_for(h).name} failed with status {status}")
-    row = summarise(out, f"dt{h}")
-    logged = read_csv(out / "steps.csv")
-    row.update(h=h, total_seconds=float(np.sum(logged["wall_s"])),
-               total_iterations=int(np.sum(logged["newton_iterations"])))
-    return row
+def measure(hs, out: Path, steps: int | None = None, executor=None) -> list[dict]:
+    """Run (or read) the scripts for the step sizes ``hs`` as one study in ``out`` and
+    summarise each run as a row of the table."""
+    study = make_study(script_for(STEPS[0]), {"time.dt": [float(h) for h in hs]},
+                       steps=steps, record=RECORD)
+    result = run_study(study, out, executor or SerialExecutor())
+    rows = []
+    for h, r in zip(hs, result.rows):
+        if r["status"] != "ok":
+            raise SystemExit(f"{script_for(h).name} with h = {h} failed: {r['error']}")
+        n = r["steps_done"]
+        rows.append({"h": h, "steps": n, "contacts_avg": r["contacts_total_mean"],
+                     "contacts_max": int(r["contacts_total_max"]),
+                     "seconds": r["wall_s_mean"], "iterations": r["newton_iterations_mean"],
+                     "total_seconds": r["wall_s_mean"] * n,
+                     "total_iterations": r["newton_iterations"],
+                     "capped": round(r["hit_iteration_cap_mean"] * n),
+                     "clean": r["frames_clean"], **{k: r[k] for k in (
+                         "intersections", "inverted_tets", "below_plane")}})
+    return rows
 
 
 def _frames(row: dict) -> str:
@@ -129,6 +127,8 @@ def main(argv=None) -> int:
     ap.add_argument("--steps", type=int, help="stop each run after N steps")
     ap.add_argument("--csv", type=Path, help="also write the table as CSV")
     ap.add_argument("--smoke", action="store_true", help="h = 0.1, three steps (CI)")
+    ap.add_argument("--workers", type=int, help="local Dask workers (default: one per core)")
+    ap.add_argument("--serial", action="store_true", help="one run after the other, no Dask")
     args = ap.parse_args(argv)
     if not SCRIPTS.is_dir():
         print(f"the original program's examples are not installed ({SCRIPTS.name} missing)",
@@ -136,10 +136,10 @@ def main(argv=None) -> int:
         return 2
     if args.smoke:
         with tempfile.TemporaryDirectory() as tmp:
-            rows = [measure("0.1", Path(tmp) / "dt0.1", steps=3)]
-            print(markdown(rows))
+            print(markdown(measure(["0.1"], Path(tmp), steps=3)))
         return 0
-    rows = [measure(h, args.out / f"dt{h}", args.steps) for h in args.h]
+    executor = SerialExecutor() if args.serial else DaskExecutor(args.workers)
+    rows = measure(args.h, args.out, args.steps, executor)
     print(markdown(rows))
     if args.csv:
         write_csv(rows, args.csv)

@@ -352,7 +352,8 @@ def _run_info(run: _Run, status: int, failure, wall0: float, started: str) -> No
             "modelled_terms": list(run.model.terms),
             "linear_solver": run.sim.linear_solver.name, "steps_planned": run.n_steps,
             "inputs_sha256": run.digest}
-    info["command"] = list(run.reporter.command) if run.reporter.command else None
+    if run.reporter.command:  # else write_run_info's own (this process's arguments)
+        info["command"] = list(run.reporter.command)
     if run.scene.overrides:
         info["overrides"] = dict(run.scene.overrides)
     if run.resume:

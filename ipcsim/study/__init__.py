@@ -12,11 +12,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..errors import RunInterrupted
 from .runs import RunTask, cached_row, plan
-from .spec import StudySpec, load_study
+from .spec import Chart, Record, StudySpec, load_study, make_study
 from .table import CHART_NAME, TABLE_NAME, chart, reference_errors, write_table
 
-__all__ = ["load_study", "run_study", "StudySpec", "StudyResult", "default_output"]
+__all__ = ["load_study", "make_study", "run_study", "StudySpec", "StudyResult", "Record",
+           "Chart", "default_output"]
 
 
 @dataclass(frozen=True)
@@ -69,6 +71,11 @@ def run_study(study: StudySpec, out: Path, executor, progress_mode: str = "off",
                     rows[task.digest] = row
                     progress.finished(task, row)
                     write_table(out / TABLE_NAME, table(), study.keys)
+    except (KeyboardInterrupt, RunInterrupted):
+        raise RunInterrupted(f"study interrupted; {len(rows)} of {len(everything)} runs are "
+                             f"in {out / TABLE_NAME}; run the same `ipcsim sweep` again to "
+                             "continue (finished runs are kept, interrupted ones "
+                             "resume)") from None
     finally:
         progress.close()
         final = table()

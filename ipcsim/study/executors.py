@@ -44,10 +44,13 @@ class SerialExecutor:
     name = "this process"
 
     def __enter__(self):
+        self._before = os.environ.get("IPCSIM_THREADS")
         os.environ.setdefault("IPCSIM_THREADS", WORKER_ENV["IPCSIM_THREADS"])
         return self
 
     def __exit__(self, *exc):
+        if self._before is None:  # as it was: later simulations choose their threads
+            os.environ.pop("IPCSIM_THREADS", None)
         return False
 
     def results(self, tasks, progress):

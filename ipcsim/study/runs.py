@@ -21,7 +21,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import IpcsimError, SceneError, excerpt, one_line
+from ..errors import IpcsimError, RunInterrupted, SceneError, excerpt, one_line
 from .spec import Record, StudySpec
 
 __all__ = ["RunTask", "plan", "execute", "cached_row", "ROW_FILE", "RUNS_DIR"]
@@ -152,6 +152,8 @@ def execute(task: RunTask) -> dict:
         spec = load_scene(task.scene, task.overrides)
         row["action"] = _simulate(task, spec)
         row.update(summarise(task))
+    except RunInterrupted:
+        raise  # Ctrl-C of a study run in this process: the study stops
     except IpcsimError as exc:
         row.update(status="failed", error=one_line(str(exc), 300))
     except Exception as exc:  # a bug: still a row, so the study goes on

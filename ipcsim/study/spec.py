@@ -38,6 +38,7 @@ and the key.
 from __future__ import annotations
 
 import math
+import os
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -46,7 +47,7 @@ from ..errors import SceneError, excerpt
 from ..scene.toml_format import locate_keys
 from ..scene.txt_format import suggest
 
-__all__ = ["StudySpec", "Axis", "Record", "Chart", "load_study", "SUMMARIES"]
+__all__ = ["StudySpec", "Axis", "Record", "Chart", "load_study", "make_study", "SUMMARIES"]
 
 SUMMARIES = ("min", "max", "mean", "final")
 MAX_RUNS = 100_000
@@ -274,7 +275,7 @@ def load_study(path) -> StudySpec:
     study = r.table(doc.get("study", {}), "study", ("scene", "output", "steps", "set"))
     if not isinstance(study.get("scene"), str):
         r.fail("study", "[study] needs scene = \"path of the base scene\"")
-    scene = (path.parent / study["scene"]).absolute()
+    scene = Path(os.path.normpath(path.parent / study["scene"]))
     if not scene.is_file():
         r.fail("study.scene", f"study.scene: '{excerpt(study['scene'], 80)}' not found "
                               f"(relative to {path.parent})")
@@ -293,5 +294,25 @@ def load_study(path) -> StudySpec:
         reference = _overrides(r, ref.get("set", {}), "reference.set")
     return StudySpec(path, scene, axes, _record(r, doc.get("record", {})),
                      _chart(r, doc.get("chart", {}), keys),
-                     (path.parent / output).absolute() if output else None, steps,
+                     Path(os.path.normpath(path.parent / output)) if output else None, steps,
                      _overrides(r, study.get("set", {}), "study.set"), reference)
+
+
+def make_study(scene, vary, *, steps: int | None = None, fixed: dict | None = None,
+               record: Record | None = None, reference: dict | None = None,
+               chart: Chart | None = None) -> StudySpec:
+    """A study built in Python rather than read from a file: ``vary`` is one table of
+    keys and value lists (they change together, as one ``[[vary]]`` table) or a list of
+    such tables (every combination); the rest as in the file."""
+    tables = [vary] if isinstance(vary, dict) else list(vary)
+    axes = []
+    for t in tables:
+        columns = [tuple(v) for v in t.values()]
+        if not columns or len({len(c) for c in columns}) != 1 or not columns[0]:
+            raise ValueError("each table of vary needs keys with as many values each")
+        axes.append(Axis(tuple(t), tuple(zip(*columns))))
+    keys = [k for a in axes for k in a.keys]
+    scene = Path(os.path.abspath(scene))
+    return StudySpec(scene.with_name(f"{scene.stem}-study.toml"), scene, tuple(axes),
+                     record or Record(), chart or Chart(keys[0]), None, steps,
+                     dict(fixed or {}), None if reference is None else dict(reference))
