@@ -2,8 +2,9 @@
 
     python -m benchmarks.study_parallel [--repeats 3] [--workers 2] [--duration S]
 
-Writes a cube-drop scene (27 vertices, 48 tets, ground contact) and a study that varies
-its Young's modulus over 8 values, then times, as a user would see them, whole commands
+Writes a cube-drop scene (125 vertices, 384 tets, ground contact, h = 1 ms, so that a
+run computes more than it writes: a frame and a checkpoint every 10 steps) and a study
+that varies its Young's modulus over 8 values, then times, as a user would see them, whole commands
 in fresh processes: ``ipcsim sweep STUDY --serial`` (the runs one after the other in one
 process) and ``ipcsim sweep STUDY --workers 2`` (a LocalCluster of two single-threaded
 worker processes), each into a new folder, alternating, ``--repeats`` times. Both include
@@ -30,7 +31,7 @@ from ipcsim.model.generate import box_tet_mesh, write_msh
 SCENE = """\
 [time]
 duration = {duration}
-dt = 0.002
+dt = 0.001
 
 [contact]
 self_collision = false
@@ -57,7 +58,7 @@ columns = ["newton_iterations"]
 
 
 def write_study(folder: Path, duration: float, runs: int = 8) -> Path:
-    points, tets = box_tet_mesh(2, 2, 2, size=(0.2, 0.2, 0.2), origin=(-0.1, 0.0, -0.1))
+    points, tets = box_tet_mesh(4, 4, 4, size=(0.2, 0.2, 0.2), origin=(-0.1, 0.0, -0.1))
     write_msh(folder / "cube.msh", points, tets)
     (folder / "drop.toml").write_text(SCENE.format(duration=duration))
     study = folder / "study.toml"
@@ -90,8 +91,9 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--duration", type=float, default=1.0,
-                    help="simulated seconds per run (default 1.0: 500 steps)")
+    ap.add_argument("--duration", type=float, default=1.5,
+                    help="simulated seconds per run (default 1.5: 1500 steps, several "
+                         "seconds of computing, long against a cluster's start)")
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -104,8 +106,10 @@ def main(argv=None) -> int:
             serial.append(timed(study, tmp / f"serial{k}", "--serial"))
             parallel.append(timed(study, tmp / f"parallel{k}", "--workers",
                                   str(args.workers)))
-            print(f"repeat {k + 1}: serial {serial[-1][0]:.1f} s, {args.workers} workers "
-                  f"{parallel[-1][0]:.1f} s", flush=True)
+            (ts, s0, s1), (tp, p0, p1) = serial[-1], parallel[-1]
+            print(f"repeat {k + 1}: serial {ts:.1f} s (load {s0:.1f}-{s1:.1f}), "
+                  f"{args.workers} workers {tp:.1f} s (load {p0:.1f}-{p1:.1f}), "
+                  f"ratio {tp / ts:.2f}", flush=True)
     s = statistics.median(t for t, _, _ in serial)
     p = statistics.median(t for t, _, _ in parallel)
     loads = [x for t in serial + parallel for x in t[1:]]
@@ -113,9 +117,12 @@ def main(argv=None) -> int:
     print(f"| runs | one after the other (s) | {args.workers} workers (s) | ratio "
           f"| load average (1 min) during |")
     print("|---|---|---|---|---|")
-    print(f"| 8 × {round(args.duration / 0.002)} steps | {s:.1f} | {p:.1f} | {p / s:.2f} "
+    print(f"| 8 × {round(args.duration / 0.001)} steps | {s:.1f} | {p:.1f} | {p / s:.2f} "
           f"| {min(loads):.1f} – {max(loads):.1f} |")
-    print("\nall repeats (s): serial " + ", ".join(f"{t:.1f}" for t, _, _ in serial)
+    ratios = sorted(tp / ts for (ts, _, _), (tp, _, _) in zip(serial, parallel))
+    print(f"\nratio of each repeat's pair: {', '.join(f'{r:.2f}' for r in ratios)}; median "
+          f"{statistics.median(ratios):.2f}")
+    print("all repeats (s): serial " + ", ".join(f"{t:.1f}" for t, _, _ in serial)
           + f"; {args.workers} workers " + ", ".join(f"{t:.1f}" for t, _, _ in parallel))
     return 0
 

@@ -24,6 +24,7 @@ __all__ = ["SerialExecutor", "DaskExecutor", "StudyProgress", "INSTALL_HINT", "d
 INSTALL_HINT = ('ipcsim sweep runs on Dask, which is not installed: pip install '
                 '"ipcsim[cluster]" (or run the study in this process with --serial)')
 POLL_S = 0.25
+_TRIM = "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_"
 
 
 def default_workers() -> int:
@@ -75,6 +76,7 @@ class DaskExecutor:
 
     def __enter__(self):
         try:
+            import dask
             from dask.distributed import Client, LocalCluster
         except ImportError:
             raise IpcsimError(INSTALL_HINT) from None
@@ -82,10 +84,18 @@ class DaskExecutor:
             if self.scheduler:
                 self.client = Client(self.scheduler, timeout="20s")
             else:
-                self.cluster = LocalCluster(
-                    n_workers=self.workers or default_workers(), threads_per_worker=1,
-                    processes=True, env=dict(WORKER_ENV), dashboard_address=None,
-                    silence_logs=logging.ERROR)
+                # Two of Dask's defaults slow a simulation down (docs/benchmarks.md): the
+                # workers' statistical profiler, which samples the running task's stack
+                # every 10 ms on the worker's event loop, holding the GIL (the task ran at
+                # half speed), and MALLOC_TRIM_THRESHOLD_, which turns off glibc's dynamic
+                # mmap threshold, so that every array over 128 KiB is mmap'ed and faulted
+                # in afresh (10-15 % of a step). A worker takes its config from here.
+                with dask.config.set({_TRIM: None, "distributed.worker.profile.enabled":
+                                      False}):
+                    self.cluster = LocalCluster(
+                        n_workers=self.workers or default_workers(), threads_per_worker=1,
+                        processes=True, env=dict(WORKER_ENV), dashboard_address=None,
+                        silence_logs=logging.ERROR)
                 self.client = Client(self.cluster)
         except (OSError, TimeoutError) as exc:
             self.__exit__()

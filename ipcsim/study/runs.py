@@ -142,9 +142,9 @@ def execute(task: RunTask) -> dict:
     error, never an exception (so one bad run does not fail a study)."""
     from ..scene import load_scene
 
-    for name, value in WORKER_ENV.items():  # an existing cluster's workers, too
-        if name == "IPCSIM_THREADS":
-            os.environ.setdefault(name, value)
+    # one numba thread (read when the Simulation is made), on an existing cluster's
+    # workers too, whose environment ipcsim did not set
+    os.environ.setdefault("IPCSIM_THREADS", WORKER_ENV["IPCSIM_THREADS"])
     row = {"run": task.name, **task.parameters, "status": "ok", "error": "",
            "folder": task.folder}
     t0 = time.perf_counter()
