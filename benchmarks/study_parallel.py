@@ -10,7 +10,9 @@ process) and ``ipcsim sweep STUDY --workers 2`` (a LocalCluster of two single-th
 worker processes), each into a new folder, alternating, ``--repeats`` times. Both include
 their start-up: the serial command loads numba's cached kernels once, the cluster starts
 its workers and each loads them. Prints the medians, the ratio and the 1-minute load
-average around every measurement; numba's cache is warmed first, so nothing compiles.
+average around every measurement, and before and after each pair the best ratio the
+machine allows at that moment (:func:`fair_share_bound`: other busy processes take their
+share of the cores). numba's cache is warmed first, so nothing compiles.
 """
 
 from __future__ import annotations
@@ -75,6 +77,23 @@ def timed(study: Path, out: Path, *how: str) -> tuple[float, float, float]:
     return time.perf_counter() - t0, before, os.getloadavg()[0]
 
 
+_LOOP = "x = 0\nfor i in range(20_000_000):\n    x += i\n"
+
+
+def fair_share_bound() -> float:
+    """What the machine gives two processes now: the wall time of a pure-Python loop run
+    twice at once over twice its time alone. On an idle 2-core machine 0.5; each other
+    busy process raises it (one: about 0.67). No study on two workers can do better."""
+    def loops(n: int) -> float:
+        t0 = time.perf_counter()
+        procs = [subprocess.Popen([sys.executable, "-c", _LOOP]) for _ in range(n)]
+        for p in procs:
+            p.wait()
+        return time.perf_counter() - t0
+
+    return loops(2) / (2 * loops(1))
+
+
 def machine() -> str:
     cpu = platform.processor() or platform.machine()
     try:
@@ -101,15 +120,18 @@ def main(argv=None) -> int:
         (tmp / "warm").mkdir()
         warm = write_study(tmp / "warm", 0.02, runs=1)
         timed(warm, tmp / "warm_out", "--serial")  # numba's cache, before any timing
-        serial, parallel = [], []
+        serial, parallel, bounds = [], [], []
         for k in range(args.repeats):
+            bounds.append(fair_share_bound())
             serial.append(timed(study, tmp / f"serial{k}", "--serial"))
             parallel.append(timed(study, tmp / f"parallel{k}", "--workers",
                                   str(args.workers)))
+            bounds.append(fair_share_bound())
             (ts, s0, s1), (tp, p0, p1) = serial[-1], parallel[-1]
             print(f"repeat {k + 1}: serial {ts:.1f} s (load {s0:.1f}-{s1:.1f}), "
                   f"{args.workers} workers {tp:.1f} s (load {p0:.1f}-{p1:.1f}), "
-                  f"ratio {tp / ts:.2f}", flush=True)
+                  f"ratio {tp / ts:.2f}; fair-share bound before/after "
+                  f"{bounds[-2]:.2f}/{bounds[-1]:.2f}", flush=True)
     s = statistics.median(t for t, _, _ in serial)
     p = statistics.median(t for t, _, _ in parallel)
     loads = [x for t in serial + parallel for x in t[1:]]
@@ -122,6 +144,8 @@ def main(argv=None) -> int:
     ratios = sorted(tp / ts for (ts, _, _), (tp, _, _) in zip(serial, parallel))
     print(f"\nratio of each repeat's pair: {', '.join(f'{r:.2f}' for r in ratios)}; median "
           f"{statistics.median(ratios):.2f}")
+    print(f"fair-share bound (two busy loops at once / twice one alone): "
+          f"{', '.join(f'{b:.2f}' for b in bounds)}; median {statistics.median(bounds):.2f}")
     print("all repeats (s): serial " + ", ".join(f"{t:.1f}" for t, _, _ in serial)
           + f"; {args.workers} workers " + ", ".join(f"{t:.1f}" for t, _, _ in parallel))
     return 0

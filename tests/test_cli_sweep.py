@@ -178,3 +178,13 @@ def test_ranges_zips_and_products(tmp_path, study):
     assert [p["time.dt"] for p in points[::3]] == pytest.approx([0.01, 0.02, 0.03])
     assert [p["material.E"] for p in points[::3]] == pytest.approx([1e4, 1e5, 1e6])
     assert [p["contact.dhat"] for p in points[:3]] == [1e-3, 3e-3, 1e-2]
+
+
+def test_the_example_study_of_the_user_guide_plans(repo_root, tmp_path):
+    from ipcsim.study.runs import plan
+
+    spec = load_study(repo_root / "input" / "studies" / "cube_drop_dt.toml")
+    tasks, reference = plan(spec, tmp_path)
+    assert [t.parameters for t in tasks] == [{"time.dt": h} for h in (0.04, 0.02, 0.01, 0.005)]
+    assert reference is not None and reference.steps == 800
+    assert len({t.folder for t in tasks}) == 4 and spec.output.name == "cube_drop_dt"

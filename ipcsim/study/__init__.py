@@ -82,7 +82,8 @@ def run_study(study: StudySpec, out: Path, executor, progress_mode: str = "off",
         if reference is not None and rows.get(reference.digest, {}).get("status") == "ok":
             reference_errors(final, rows[reference.digest])
         write_table(out / TABLE_NAME, final, study.keys)
-    picture = chart(out / CHART_NAME, final, study.chart.x, study.chart.y, study.keys,
+    runs = [r for r in final if r.get("run") != "reference"]  # its error is 0 by definition
+    picture = chart(out / CHART_NAME, runs, study.chart.x, study.chart.y, study.keys,
                     log_x=study.chart.log_x, log_y=study.chart.log_y,
                     title=f"{study.path.stem}: {study.chart.y} against {study.chart.x}")
     failed = sum(r.get("status") != "ok" for r in final)
