@@ -21,6 +21,12 @@ Wall time is the sum of the steps' wall times (``wall_s`` of steps.csv), so numb
 compilation is excluded; one warm-up run precedes the measurements, and each sweep run is
 timed up to three times, the fastest kept. ``--smoke`` runs one
 scene with two settings for a few steps into a temporary folder (for CI).
+
+Not a study (``ipcsim sweep``): the mesh resolution it sweeps is a new mesh per value,
+not a value of one scene; its error is taken at material points inside the rest tets,
+sampled every 0.05 s while the run steps in this process, not from frames of equal meshes;
+and it times each run up to three times, keeping the fastest. A study would carry all of
+that as code of its own beside the study machinery.
 """
 
 from __future__ import annotations

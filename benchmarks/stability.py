@@ -19,6 +19,12 @@ through ``ipcsim run``, the penalty one on the same scene with ``contact.formula
 goes over every frame, and penetration depths are measured: below a plane, and of each
 body's vertices inside another body's closed surface (winding number).
 
+Not a study (``ipcsim sweep``): its cases are scenes of their own (meshes, shapes and
+boundary conditions per case, not values of one scene), every run has a wall-clock
+budget after which it is stopped as by Ctrl-C, and the analysis of each case
+(penetration by winding numbers, tunnelling from centroids, energy gained) is the case's
+own; a study would keep all of that and add a layer.
+
 Without ``--smoke`` the results go to docs/benchmarks/stability.csv and
 docs/benchmarks/stability_table.md, and the charts to docs/benchmarks/stability_speed.png
 and stability_timestep.png.

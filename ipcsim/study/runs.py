@@ -261,4 +261,5 @@ def _frames(folder: Path) -> dict:
 
 def describe(task: RunTask) -> str:
     """The run as a message names it."""
-    return f"run {task.name} ({', '.join(f'{k}={excerpt(repr(v))}' for k, v in task.parameters.items())})"
+    values = ", ".join(f"{k}={excerpt(repr(v))}" for k, v in task.parameters.items())
+    return f"run {task.name} ({values})"

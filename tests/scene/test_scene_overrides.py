@@ -3,8 +3,6 @@ key or value is a SceneError naming it, checked as the same value in a TOML file
 
 from __future__ import annotations
 
-import dataclasses
-
 import pytest
 
 from ipcsim.errors import SceneError
@@ -24,7 +22,8 @@ def _changed(a, b) -> dict:
                 yield from flat(v, f"{prefix}[{i}]")
         else:
             yield prefix, doc
-    fa, fb = dict(flat(scene_to_dict(a, a.source.parent))), dict(flat(scene_to_dict(b, b.source.parent)))
+    fa = dict(flat(scene_to_dict(a, a.source.parent)))
+    fb = dict(flat(scene_to_dict(b, b.source.parent)))
     return {k: fb.get(k) for k in fa.keys() | fb.keys() if fa.get(k) != fb.get(k)}
 
 
