@@ -53,6 +53,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ipcsim.kernels.scatter import scatter_local_gradients
+
 NEO_HOOKEAN = 0
 FIXED_COROTATED = 1
 
@@ -525,20 +527,9 @@ def elastic_local_gradients(x, tets, Dm_inv, volumes, lame, model):
 
 
 @njit(cache=True)
-def scatter_local_gradients(local, tets, n_vertices):
-    """Flat (3n,) sum of per-tet (m, 12) gradients; serial, so no write races."""
-    g = np.zeros(3 * n_vertices)
-    for e in range(tets.shape[0]):
-        for v in range(4):
-            base = 3 * tets[e, v]
-            for a in range(3):
-                g[base + a] += local[e, 3 * v + a]
-    return g
-
-
-@njit(cache=True)
 def elastic_gradient(x, tets, Dm_inv, volumes, lame, model):
-    """∂E/∂x as a flat (3n,) vector, DOF 3i + a."""
+    """∂E/∂x as a flat (3n,) vector, DOF 3i + a: per-tet gradients in parallel, then the
+    shared serial scatter (``scatter.scatter_local_gradients``)."""
     local = elastic_local_gradients(x, tets, Dm_inv, volumes, lame, model)
     return scatter_local_gradients(local, tets, x.shape[0])
 
