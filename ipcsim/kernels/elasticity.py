@@ -53,6 +53,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ipcsim.kernels.linalg import cofactor3, det3, tet_edge_matrix
 from ipcsim.kernels.scatter import scatter_local_gradients
 
 NEO_HOOKEAN = 0
@@ -83,43 +84,9 @@ def _pair(k):
 
 
 @njit(cache=True, inline="always")
-def _det3(A):
-    # det A by cofactor expansion along the first row
-    return (
-        A[0, 0] * (A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1])
-        - A[0, 1] * (A[1, 0] * A[2, 2] - A[1, 2] * A[2, 0])
-        + A[0, 2] * (A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0])
-    )
-
-
-@njit(cache=True, inline="always")
-def _cofactor3(A, C):
-    # C = ∂det(A)/∂A = det(A) A⁻ᵀ (the cofactor matrix)
-    C[0, 0] = A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1]
-    C[0, 1] = A[1, 2] * A[2, 0] - A[1, 0] * A[2, 2]
-    C[0, 2] = A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]
-    C[1, 0] = A[0, 2] * A[2, 1] - A[0, 1] * A[2, 2]
-    C[1, 1] = A[0, 0] * A[2, 2] - A[0, 2] * A[2, 0]
-    C[1, 2] = A[0, 1] * A[2, 0] - A[0, 0] * A[2, 1]
-    C[2, 0] = A[0, 1] * A[1, 2] - A[0, 2] * A[1, 1]
-    C[2, 1] = A[0, 2] * A[1, 0] - A[0, 0] * A[1, 2]
-    C[2, 2] = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
-
-
-@njit(cache=True, inline="always")
-def _edge_matrix(x, tets, e, D):
-    # D = [x1 − x0, x2 − x0, x3 − x0] (columns)
-    i0 = tets[e, 0]
-    for c in range(3):
-        ic = tets[e, c + 1]
-        for a in range(3):
-            D[a, c] = x[ic, a] - x[i0, a]
-
-
-@njit(cache=True, inline="always")
 def _deformation_gradient(x, tets, Dm_inv, e, Ds, F):
     # F = Ds Dm⁻¹
-    _edge_matrix(x, tets, e, Ds)
+    tet_edge_matrix(x, tets, e, Ds)
     for a in range(3):
         for b in range(3):
             F[a, b] = Ds[a, 0] * Dm_inv[e, 0, b] + Ds[a, 1] * Dm_inv[e, 1, b] + Ds[a, 2] * Dm_inv[e, 2, b]
@@ -185,7 +152,7 @@ def _svd3(F, U, s, V, B):
                 tmp = V[a, p]
                 V[a, p] = V[a, q]
                 V[a, q] = tmp
-    if _det3(V) < 0.0:
+    if det3(V) < 0.0:
         for a in range(3):
             V[a, 2] = -V[a, 2]
             B[a, 2] = -B[a, 2]
@@ -277,7 +244,7 @@ def _sym3_eig(A, w, Q, M):
 def _psi_from_F(F, mu, lam, model, U, s, V, B):
     if model == NEO_HOOKEAN:
         # Ψ = μ/2 (tr FᵀF − 3) − μ ln J + λ/2 (ln J)²
-        J = _det3(F)
+        J = det3(F)
         if J <= 0.0:
             return np.inf
         trc = 0.0
@@ -288,7 +255,7 @@ def _psi_from_F(F, mu, lam, model, U, s, V, B):
         return 0.5 * mu * (trc - 3.0) - mu * lnJ + 0.5 * lam * lnJ * lnJ
     # Ψ = μ Σ (σᵢ − 1)² + λ/2 (J − 1)²
     _svd3(F, U, s, V, B)
-    J = _det3(F)
+    J = det3(F)
     return mu * ((s[0] - 1.0) ** 2 + (s[1] - 1.0) ** 2 + (s[2] - 1.0) ** 2) + 0.5 * lam * (J - 1.0) ** 2
 
 
@@ -297,8 +264,8 @@ def _first_piola(F, mu, lam, model, P, U, s, V, B):
     """P = ∂Ψ/∂F. Returns False (and leaves P undefined) for NH with J ≤ 0."""
     if model == NEO_HOOKEAN:
         # P = μ F + (λ ln J − μ) F⁻ᵀ,  F⁻ᵀ = cof(F)/J
-        _cofactor3(F, B)
-        J = _det3(F)
+        cofactor3(F, B)
+        J = det3(F)
         if J <= 0.0:
             return False
         k = (lam * np.log(J) - mu) / J
@@ -358,7 +325,7 @@ def _is_spd3(A):
         return False
     if A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0] <= 0.0:
         return False
-    return _det3(A) > 0.0
+    return det3(A) > 0.0
 
 
 @njit(cache=True, inline="always")
@@ -728,20 +695,20 @@ def max_step_per_tet(x, p, tets, min_volume_ratio):
         Dp = S[1]
         C = S[2]
         for e in range(ch * _CHUNK, min(m, (ch + 1) * _CHUNK)):
-            _edge_matrix(x, tets, e, Ds)
-            _edge_matrix(p, tets, e, Dp)
+            tet_edge_matrix(x, tets, e, Ds)
+            tet_edge_matrix(p, tets, e, Dp)
             # det(Ds + t Dp) = det Dp t³ + ⟨cof Dp, Ds⟩ t² + ⟨cof Ds, Dp⟩ t + det Ds
-            d0 = _det3(Ds)
+            d0 = det3(Ds)
             if d0 <= 0.0:
                 out[e] = 0.0
                 continue
-            a = _det3(Dp)
-            _cofactor3(Dp, C)
+            a = det3(Dp)
+            cofactor3(Dp, C)
             b = 0.0
             for i in range(3):
                 for j in range(3):
                     b += C[i, j] * Ds[i, j]
-            _cofactor3(Ds, C)
+            cofactor3(Ds, C)
             c = 0.0
             for i in range(3):
                 for j in range(3):

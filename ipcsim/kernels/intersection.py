@@ -56,6 +56,8 @@ from itertools import permutations
 import numpy as np
 from numba import njit
 
+from ipcsim.kernels.linalg import tet_signed_volumes
+
 _EPS = 2.0**-53
 _O3D_ERRBOUND = (7.0 + 56.0 * _EPS) * _EPS  # Shewchuk o3derrboundA
 _O2D_ERRBOUND = (3.0 + 16.0 * _EPS) * _EPS  # Shewchuk ccwerrboundA
@@ -468,23 +470,11 @@ def segment_triangle_intersection(p, q, a, b, c):
 
 @njit(cache=True)
 def tet_orientations(x, tets, signs, volumes):
-    """signs[t] = exact orient3d of tet t (int8); volumes[t] = float det[b-a, c-a, d-a] / 6."""
+    """signs[t] = exact orient3d of tet t (int8); volumes[t] = its floating-point signed
+    volume det[b-a, c-a, d-a] / 6 (``linalg.tet_signed_volumes``, not exact)."""
     for t in range(tets.shape[0]):
-        a = x[tets[t, 0]]
-        b = x[tets[t, 1]]
-        c = x[tets[t, 2]]
-        d = x[tets[t, 3]]
-        signs[t] = orient3d(a, b, c, d)
-        ux = b[0] - a[0]
-        uy = b[1] - a[1]
-        uz = b[2] - a[2]
-        vx = c[0] - a[0]
-        vy = c[1] - a[1]
-        vz = c[2] - a[2]
-        wx = d[0] - a[0]
-        wy = d[1] - a[1]
-        wz = d[2] - a[2]
-        volumes[t] = (ux * (vy * wz - vz * wy) + uy * (vz * wx - vx * wz) + uz * (vx * wy - vy * wx)) / 6.0
+        signs[t] = orient3d(x[tets[t, 0]], x[tets[t, 1]], x[tets[t, 2]], x[tets[t, 3]])
+    volumes[:] = tet_signed_volumes(x, tets)
 
 
 @njit(cache=True)
