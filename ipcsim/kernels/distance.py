@@ -348,10 +348,31 @@ def _edge_frame_coords(p, a, b, n):
 
 
 @njit(cache=True, error_model="numpy")
+def degenerate_triangle_distance_type(p, t0, t1, t2):
+    """Type for a triangle with collinear vertices (normal exactly 0, no plane): the closest
+    of its three edges (t0t1, t1t2, t2t0) as segments, i.e. P_E{k} or a vertex P_T{k}
+    (the first edge wins a tie)."""
+    T = (t0, t1, t2)
+    best = PT_P_T0
+    d_best = np.inf
+    for k in range(3):
+        kb = (k + 1) % 3
+        pe = point_edge_distance_type(p, T[k], T[kb])
+        d = point_edge_distance_sq(p, T[k], T[kb], pe)
+        if d < d_best:
+            d_best = d
+            best = PT_P_E0 + k if pe == PE_P_E else (PT_P_T0 + k if pe == PE_P_E0 else PT_P_T0 + kb)
+    return best
+
+
+@njit(cache=True, error_model="numpy")
 def point_triangle_distance_type(p, t0, t1, t2):
     """P_E{k} when p projects inside edge k (t0t1, t1t2, t2t0) on its outer side; else a
-    vertex when p is beyond both of its edges' ends; else the interior P_T."""
+    vertex when p is beyond both of its edges' ends; else the interior P_T. A degenerate
+    triangle (collinear vertices) goes to degenerate_triangle_distance_type."""
     n = cross3(sub3(t1, t0), sub3(t2, t0))
+    if squared_norm3(n) == 0.0:
+        return degenerate_triangle_distance_type(p, t0, t1, t2)
     s0, h0 = _edge_frame_coords(p, t0, t1, n)
     if s0 > 0.0 and s0 < 1.0 and h0 >= 0.0:
         return PT_P_E0
