@@ -92,22 +92,10 @@ def _deformation_gradient(x, tets, Dm_inv, e, Ds, F):
             F[a, b] = Ds[a, 0] * Dm_inv[e, 0, b] + Ds[a, 1] * Dm_inv[e, 1, b] + Ds[a, 2] * Dm_inv[e, 2, b]
 
 
-@njit(cache=True)
-def _svd3(F, U, s, V, B):
-    """Rotation-variant SVD F = U diag(s) Vᵀ with det U = det V = +1, s0 ≥ s1 ≥ |s2|.
-
-    1. one-sided Jacobi (Hestenes): rotate column pairs of B = F V until they are
-       orthogonal (accurate also for small singular values, unlike eig(FᵀF));
-    2. sort columns by norm, make det V = +1 by negating the last column;
-    3. Givens QR of B = U R with U a product of rotations: R is diagonal up to round-off,
-       s = diag(R), and s2 carries the sign of det F.
-    B is scratch (3, 3).
-    """
-    for a in range(3):
-        for b in range(3):
-            B[a, b] = F[a, b]
-            V[a, b] = 1.0 if a == b else 0.0
-            U[a, b] = 1.0 if a == b else 0.0
+@njit(cache=True, inline="always")
+def _jacobi_orthogonalize(B, V):
+    # one-sided Jacobi (Hestenes): rotate column pairs of B (and V alike) until they are
+    # orthogonal
     for _sweep in range(20):
         t_max = 0.0  # largest rotation this sweep; Jacobi converges quadratically, so once
         #              every |t| < 1e-9 the off-diagonal left is ~1e-18 and we stop
@@ -138,7 +126,12 @@ def _svd3(F, U, s, V, B):
                 V[a, q] = sn * vp + c * vq
         if t_max < 1e-9:
             break
-    # sort columns by squared norm, descending (three compare-and-swaps)
+
+
+@njit(cache=True, inline="always")
+def _sort_columns(B, V):
+    # columns of B (and V alike) by squared norm, descending (three compare-and-swaps);
+    # then det V = +1 by negating the last column of both
     for k in range(3):
         p = 0 if k != 1 else 1
         q = p + 1
@@ -156,6 +149,10 @@ def _svd3(F, U, s, V, B):
         for a in range(3):
             V[a, 2] = -V[a, 2]
             B[a, 2] = -B[a, 2]
+
+
+@njit(cache=True, inline="always")
+def _givens_qr(B, U):
     # Givens QR: zero B[1,0], B[2,0], B[2,1]; U ← U Gᵀ keeps F V = U B
     for k in range(3):
         if k == 0:
@@ -180,6 +177,27 @@ def _svd3(F, U, s, V, B):
             u1 = U[a, r1]
             U[a, r0] = c * u0 + sn * u1
             U[a, r1] = -sn * u0 + c * u1
+
+
+@njit(cache=True)
+def _svd3(F, U, s, V, B):
+    """Rotation-variant SVD F = U diag(s) Vᵀ with det U = det V = +1, s0 ≥ s1 ≥ |s2|.
+
+    1. one-sided Jacobi (Hestenes): rotate column pairs of B = F V until they are
+       orthogonal (accurate also for small singular values, unlike eig(FᵀF));
+    2. sort columns by norm, make det V = +1 by negating the last column;
+    3. Givens QR of B = U R with U a product of rotations: R is diagonal up to round-off,
+       s = diag(R), and s2 carries the sign of det F.
+    B is scratch (3, 3). The three steps are inlined (inline="always"): one call.
+    """
+    for a in range(3):
+        for b in range(3):
+            B[a, b] = F[a, b]
+            V[a, b] = 1.0 if a == b else 0.0
+            U[a, b] = 1.0 if a == b else 0.0
+    _jacobi_orthogonalize(B, V)
+    _sort_columns(B, V)
+    _givens_qr(B, U)
     s[0] = B[0, 0]
     s[1] = B[1, 1]
     s[2] = B[2, 2]
