@@ -94,12 +94,14 @@ def edge_use_counts(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def enclosed_volume(points: np.ndarray, triangles: np.ndarray) -> float:
     """Volume enclosed by a closed, outward-oriented triangle surface (divergence theorem):
     V = (1/6) sum_f x0 . (x1 x x2)."""
-    p = np.asarray(points, dtype=np.float64)
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
     if len(t) == 0:
         return 0.0
-    x0, x1, x2 = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
-    return float(np.einsum("ij,ij->i", x0, np.cross(x1, x2)).sum() / 6.0)
+    # x0 . (x1 x x2) / 6 is the signed volume of the tet (origin, x0, x1, x2)
+    apex = np.vstack([p, np.zeros((1, 3))])
+    tets = np.column_stack([np.full(len(t), len(p), dtype=np.int64), t])
+    return float(tet_signed_volumes(apex, tets).sum())
 
 
 def tet_signed_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
