@@ -277,9 +277,10 @@ def friction_value(u, verts, coeffs, basis, weight, eps):
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _local_gradients(u, verts, coeffs, basis, weight, eps):
-    # row k (12,): c_i w (f1/y) P τ on stencil vertex i (zeros in unused slots)
+    # row k (12,): c_i w (f1/y) P τ on stencil vertex i (unused slots, verts = −1, hold
+    # c_i = 0 times it; the scatter skips them)
     m = verts.shape[0]
-    G = np.zeros((m, 12))
+    G = np.empty((m, 12))
     for k in prange(m):
         P = basis[k]
         t0, t1 = _tangential(u, verts[k], coeffs[k], P)
@@ -287,8 +288,7 @@ def _local_gradients(u, verts, coeffs, basis, weight, eps):
         for a in range(3):
             f = s * (P[a, 0] * t0 + P[a, 1] * t1)  # the force direction, shared by the stencil
             for i in range(4):
-                if verts[k, i] >= 0:
-                    G[k, 3 * i + a] = coeffs[k, i] * f
+                G[k, 3 * i + a] = coeffs[k, i] * f
     return G
 
 
