@@ -114,11 +114,21 @@ def _load(x0, x1, stencil, q0, dq):
 
 
 @njit(cache=True)
-def _at(q0, dq, t, q):
-    # q(t) = q0 + t·dq
-    for r in range(4):
-        for a in range(3):
-            q[r, a] = q0[r, a] + t * dq[r, a]
+def _point_at(q0, dq, t, r):
+    # row r of q(t) = q0 + t·dq, as a tuple
+    return (q0[r, 0] + t * dq[r, 0], q0[r, 1] + t * dq[r, 1], q0[r, 2] + t * dq[r, 2])
+
+
+@njit(cache=True)
+def _distance_at(q0, dq, t, is_pt):
+    # _distance of q(t) = q0 + t·dq, without writing q(t) to an array
+    a = _point_at(q0, dq, t, 0)
+    b = _point_at(q0, dq, t, 1)
+    c = _point_at(q0, dq, t, 2)
+    d = _point_at(q0, dq, t, 3)
+    if is_pt:
+        return np.sqrt(_d.point_triangle_distance_sq(a, b, c, d))
+    return np.sqrt(_d.edge_edge_distance_sq(a, b, c, d))
 
 
 @njit(cache=True)
@@ -168,25 +178,22 @@ def _init_query(x0, x1, stencil, is_pt, q0, dq, state):
 @njit(cache=True)
 def _advance_query(x0, x1, stencil, is_pt, bufs, state, tmax, n_iter, f):
     # at most n_iter ACCD steps from the safe time state[_T], never past tmax
-    q0, dq, q = bufs[0], bufs[1], bufs[2]
+    q0, dq = bufs[0], bufs[1]
     _load(x0, x1, stencil, q0, dq)
     t = state[_T]
     lp = state[_LP]
     gap = f * state[_D0]
     s = (1.0 - f) * _STEP_SAFETY
-    _at(q0, dq, t, q)
-    d = _distance(q, is_pt)
+    d = _distance_at(q0, dq, t, is_pt)
     for _ in range(n_iter):
         state[_ITERS] += 1.0
         t_next = min(t + s * d / lp, tmax)  # d >= (1 - s)·d > 0 on [t, t_next]
-        _at(q0, dq, t_next, q)
-        d_next = _distance(q, is_pt)
+        d_next = _distance_at(q0, dq, t_next, is_pt)
         if not d_next >= gap:  # the gap would fall under f·d0: one last, shorter step,
             # d >= d - l_p·τ >= f·d0 on [t, t + (d - f·d0) / l_p], then stop
             t_last = min(t + _STEP_SAFETY * (d - gap) / lp, tmax)
             if t_last > t:
-                _at(q0, dq, t_last, q)
-                if _distance(q, is_pt) >= gap:
+                if _distance_at(q0, dq, t_last, is_pt) >= gap:
                     t = t_last
             state[_T] = t
             state[_DONE] = 1.0
@@ -223,7 +230,7 @@ def _init_serial(x0, x1, stencils, n_pt, state):
 @njit(cache=True)
 def _advance_chunk(x0, x1, stencils, n_pt, state, active, params, c):
     # params = (tmax, iterations per query, f); every query writes only its own state row
-    bufs = np.empty((3, 4, 3))
+    bufs = np.empty((2, 4, 3))
     for i in range(c * _CHUNK, min((c + 1) * _CHUNK, active.shape[0])):
         k = active[i]
         _advance_query(x0, x1, stencils[k], k < n_pt, bufs, state[k], params[0],
