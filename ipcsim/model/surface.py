@@ -12,8 +12,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..kernels.linalg import tet_signed_volumes as _tet_signed_volumes
-
 # Local vertex indices of the four outward faces of tet (a, b, c, d) = (0, 1, 2, 3).
 TET_FACES = np.array([[0, 2, 1], [0, 3, 2], [0, 1, 3], [1, 2, 3]], dtype=np.int64)
 
@@ -107,6 +105,8 @@ def enclosed_volume(points: np.ndarray, triangles: np.ndarray) -> float:
 def tet_signed_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
     """Signed volumes (m,) of tets: V = det[x1 - x0, x2 - x0, x3 - x0] / 6
     (``kernels.linalg.tet_signed_volumes``, for any array-like input)."""
+    from ..kernels.linalg import tet_signed_volumes as kernel  # numba: imported on use
+
     p = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
     t = np.ascontiguousarray(tets, dtype=np.int64).reshape(-1, 4)
-    return _tet_signed_volumes(p, t)
+    return kernel(p, t)
