@@ -48,6 +48,7 @@ from ipcsim.kernels.distance import (
 )
 from ipcsim.kernels.linalg import cross3, dot3, scale3, squared_norm3, sub3
 from ipcsim.kernels.mollifier import edge_edge_cross_sq
+from ipcsim.kernels.scatter import scatter_local_gradients
 
 
 # =========================================================================================
@@ -276,33 +277,27 @@ def friction_value(u, verts, coeffs, basis, weight, eps):
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _local_gradients(u, verts, coeffs, basis, weight, eps):
-    # row k: w (f1/y) P τ  (3,), the force direction shared by the stencil (scaled by c_i)
+    # row k (12,): c_i w (f1/y) P τ on stencil vertex i (unused slots, verts = −1, hold
+    # c_i = 0 times it; the scatter skips them)
     m = verts.shape[0]
-    G = np.empty((m, 3))
+    G = np.empty((m, 12))
     for k in prange(m):
         P = basis[k]
         t0, t1 = _tangential(u, verts[k], coeffs[k], P)
         s = weight[k] * f1_over_y(np.sqrt(t0 * t0 + t1 * t1), eps)
         for a in range(3):
-            G[k, a] = s * (P[a, 0] * t0 + P[a, 1] * t1)
+            f = s * (P[a, 0] * t0 + P[a, 1] * t1)  # the force direction, shared by the stencil
+            for i in range(4):
+                G[k, 3 * i + a] = coeffs[k, i] * f
     return G
 
 
 @njit(cache=True, error_model="numpy")
 def friction_gradient(u, verts, coeffs, basis, weight, eps):
-    """∇D (3n,): ∇_{u_i} D_k = c_i w (f1/y) P τ. Per-pair vectors in parallel, serial
-    scatter (race-free)."""
+    """∇D (3n,): ∇_{u_i} D_k = c_i w (f1/y) P τ. Per-pair gradients in parallel, then the
+    shared serial scatter (``scatter.scatter_local_gradients``; unused slots, −1, skipped)."""
     G = _local_gradients(u, verts, coeffs, basis, weight, eps)
-    g = np.zeros(3 * u.shape[0])
-    for k in range(verts.shape[0]):
-        for i in range(4):
-            v = verts[k, i]
-            if v < 0:
-                continue
-            c = coeffs[k, i]
-            for a in range(3):
-                g[3 * v + a] += c * G[k, a]
-    return g
+    return scatter_local_gradients(G, verts, u.shape[0])
 
 
 @njit(cache=True, error_model="numpy")

@@ -28,10 +28,10 @@ from numba import njit, prange
 
 from ipcsim.kernels.contact_barrier import (
     HESSIAN_BLOCK,
-    _gather,
-    _project_psd_on,
-    _write_block,
     classify_and_distance,
+    gather_stencil,
+    project_psd_on_feature,
+    write_hessian_block,
 )
 from ipcsim.kernels.distance import (
     EE_FEATURES,
@@ -46,10 +46,10 @@ from ipcsim.kernels.distance import (
     point_triangle_distance_type,
 )
 from ipcsim.kernels.plane_contact import (
-    _signed_distance,
     normal_gradient,
     normal_hessian_triplets,
     plane_distances,
+    signed_distance,
 )
 from ipcsim.kernels.scatter import scatter_stencil_gradients
 
@@ -64,7 +64,7 @@ def plane_penalty_value(x, vertices, origins, normals, dhat, k):
     total = 0.0
     for p in range(origins.shape[0]):
         for j in range(vertices.shape[0]):
-            gap = dhat - _signed_distance(x, vertices[j], origins[p], normals[p])
+            gap = dhat - signed_distance(x, vertices[j], origins[p], normals[p])
             if gap > 0.0:
                 total += 0.5 * k * gap * gap
     return total
@@ -114,7 +114,7 @@ def _pair_derivatives(V, is_pt):
 
 @njit(cache=True, error_model="numpy")
 def _pair_value(x, pair, is_pt, dhat, k):
-    V = _gather(x, pair)
+    V = gather_stencil(x, pair)
     if is_pt:
         s = point_triangle_distance_sq(V[0], V[1], V[2], V[3],
                                        point_triangle_distance_type(V[0], V[1], V[2], V[3]))
@@ -129,7 +129,7 @@ def _pair_value(x, pair, is_pt, dhat, k):
 @njit(cache=True, error_model="numpy")
 def _pair_gradient(x, pair, is_pt, dhat, k):
     # ∇P = f'(s) ∇s
-    s, g, _, _ = _pair_derivatives(_gather(x, pair), is_pt)
+    s, g, _, _ = _pair_derivatives(gather_stencil(x, pair), is_pt)
     if s >= dhat * dhat:
         return np.zeros(12)
     _, f1, _ = _penalty_of_sq(s, dhat, k)
@@ -141,14 +141,14 @@ def _pair_gradient(x, pair, is_pt, dhat, k):
 @njit(cache=True, error_model="numpy")
 def _pair_hessian_into(x, pair, is_pt, dhat, k, project, rows, cols, vals, base):
     # ∇²P = f'(s) ∇²s + f''(s) ∇s ∇sᵀ, projected to PSD on the closest feature's block
-    s, g, H, feature = _pair_derivatives(_gather(x, pair), is_pt)
+    s, g, H, feature = _pair_derivatives(gather_stencil(x, pair), is_pt)
     _, f1, f2 = _penalty_of_sq(s, dhat, k)
     for i in range(12):
         for j in range(12):
             H[i, j] = f1 * H[i, j] + f2 * g[i] * g[j]
     if project:
-        H = _project_psd_on(H, feature)
-    _write_block(rows, cols, vals, base, pair, H)
+        H = project_psd_on_feature(H, feature)
+    write_hessian_block(rows, cols, vals, base, pair, H)
 
 
 @njit(cache=True, parallel=True, error_model="numpy")

@@ -29,7 +29,7 @@ from . import legacy_scripts
 from .kinematics import rotation_axis_angle, rotation_xyz
 from .model import (GRAVITY, DirichletSet, MeshSequence, Model, NeumannSet, SolverSettings,
                     TimeSettings)
-from .surface import boundary_triangles, unique_edges
+from .surface import boundary_triangles, tet_signed_volumes, unique_edges
 
 SEQUENCE_EXT = {"tet": "msh", "surface": "obj", "segments": "seg", "points": "pt"}
 ENERGY_NAMES = {"NH": "neo-Hookean", "FCR": "fixed corotated"}
@@ -403,7 +403,7 @@ def _elastic_tets(scene, all_parts, offsets, rest) -> _Elastic:
     x0 = rest[tets[:, 0]]
     dm = np.stack([rest[tets[:, 1]] - x0, rest[tets[:, 2]] - x0, rest[tets[:, 3]] - x0],
                   axis=2)  # Dm = [x1 - x0, x2 - x0, x3 - x0] as columns
-    vol = np.linalg.det(dm) / 6.0  # V = det(Dm) / 6
+    vol = tet_signed_volumes(rest, tets)  # V = det(Dm) / 6
     if np.any(~(vol > 0.0)):
         bad = int(np.flatnonzero(~(vol > 0.0))[0])
         raise _scene_error(scene, all_parts[tet_shape[bad]].line,
