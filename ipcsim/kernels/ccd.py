@@ -256,10 +256,11 @@ def _init(x0, x1, stencils, n_pt):
     return state
 
 
-def _advance(x0, x1, stencils, n_pt, state, active, tmax, n_iter, f):
+def _advance(x0, x1, stencils, n_pt, state, active, params):
+    """Advance the ``active`` queries; params = (t_max, iterations, min gap fraction)."""
     # a few queries run serially: a parallel launch costs more than they do
     run = _advance_parallel if active.shape[0] > _SERIAL_BELOW else _advance_serial
-    run(x0, x1, stencils, n_pt, state, active, np.array([tmax, float(n_iter), f]))
+    run(x0, x1, stencils, n_pt, state, active, np.array(params, dtype=np.float64))
 
 
 def _stack_stencils(pt_pairs, ee_pairs, n_vertices):
@@ -293,8 +294,8 @@ def ccd_query_steps(x0, x1, pt_pairs, ee_pairs, min_gap_fraction=DEFAULT_MIN_GAP
     state = _init(x0, x1, stencils, n_pt)
     active = np.flatnonzero(state[:, _DONE] == 0.0)
     if active.size:
-        _advance(x0, x1, stencils, n_pt, state, active, 1.0, max_iterations,
-                 float(min_gap_fraction))
+        _advance(x0, x1, stencils, n_pt, state, active,
+                 (1.0, float(max_iterations), float(min_gap_fraction)))
     return state[:, _T].copy(), state[:, _ITERS].copy()
 
 
@@ -321,7 +322,7 @@ def ccd_max_step(x0, x1, pt_pairs, ee_pairs, min_gap_fraction=DEFAULT_MIN_GAP_FR
         if active.size == 0 or spent >= max_iterations:
             break
         n_iter = min(budget, max_iterations - spent)
-        _advance(x0, x1, stencils, n_pt, state, active, alpha, n_iter, f)
+        _advance(x0, x1, stencils, n_pt, state, active, (alpha, float(n_iter), f))
         spent += n_iter
         budget *= 4
     running = state[:, _DONE] == 0.0
