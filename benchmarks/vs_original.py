@@ -27,10 +27,11 @@ than R of the scene size, and their largest difference.
 
 Before measuring, ipcsim runs a few scenes untimed so that numba's cache is warm
 (``--no-warmup`` to measure a cold start). Both programs run on ``--threads`` threads
-(default 1; ipcsim through ``IPCSIM_THREADS``). ``--ipc-lib-path`` names folders with the
-original's runtime libraries; they are put on ``LD_LIBRARY_PATH`` of the original's
-process only, never of ipcsim's (a TBB library that numba can see changes its threading).
-The libraries come with ``apt-get install -y libcholmod3 libtbb12 libopenblas0-pthread``.
+(default 1; ipcsim through ``IPCSIM_THREADS``). ``--ipc-lib-path`` (default
+``$IPC_LIB_PATH``) names folders with the original's runtime libraries; they are put on
+``LD_LIBRARY_PATH`` of the original's process only, never of ipcsim's (a TBB library
+that numba can see changes its threading). The libraries come with
+``apt-get install -y libcholmod3 libtbb12 libopenblas0-pthread``.
 
 Prints the table with the machine, the date and the load average before and after, and
 writes ``vs_original.csv``, ``vs_original_table.md`` and ``vs_original.png`` into
@@ -462,6 +463,8 @@ def summarise(st: Staged, verdict: dict) -> dict:
            "shortened": f"{st.scene.shorten[0]:g} s" if st.scene.shorten else "",
            "repeats": len(st.runs["ipcsim"])}
     for program, runs in st.runs.items():
+        if not runs:
+            continue
         last = runs[-1]
         row.update({f"{program}_{k}": getattr(last, k) for k in
                     ("rc", "steps", "newton_per_step", "contacts_mean", "vertices")})
@@ -470,8 +473,8 @@ def summarise(st: Staged, verdict: dict) -> dict:
         row[f"{program}_wall_all"] = " ".join(f"{r.wall_s:.3f}" for r in runs)
         if any(r.rc != 0 for r in runs):
             row[f"{program}_rc"] = next(r.rc for r in runs if r.rc != 0)
-    row["ratio"] = _ratio(row["ipcsim_wall_s"], row["original_wall_s"])
-    row["steps_ratio"] = _ratio(row["ipcsim_steps_wall_s"], row["original_steps_wall_s"])
+    row["ratio"] = _ratio(row.get("ipcsim_wall_s"), row.get("original_wall_s"))
+    row["steps_ratio"] = _ratio(row.get("ipcsim_steps_wall_s"), row.get("original_steps_wall_s"))
     row.update({f"compare_{k}": v for k, v in verdict.items()})
     return row
 
@@ -664,9 +667,10 @@ def parse_args(argv):
                     "docs/benchmarks; with --smoke: nowhere unless given)")
     ap.add_argument("--work", type=Path, help="folder for the runs (default output/"
                     "vs_original; with --smoke a temporary one)")
-    ap.add_argument("--ipc-lib-path", default="", metavar="DIRS",
-                    help="folders (':'-separated) with the original's runtime libraries, "
-                    "put on LD_LIBRARY_PATH for the original's process only")
+    ap.add_argument("--ipc-lib-path", default=os.environ.get("IPC_LIB_PATH", ""),
+                    metavar="DIRS", help="folders (':'-separated) with the original's "
+                    "runtime libraries, put on LD_LIBRARY_PATH for the original's process "
+                    "only (default: $IPC_LIB_PATH)")
     ap.add_argument("--threads", type=int, default=1, help="threads per program (default 1)")
     ap.add_argument("--timeout", type=float, default=1800.0, metavar="S",
                     help="seconds allowed per run (default 1800)")
