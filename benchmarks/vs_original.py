@@ -1,12 +1,13 @@
 """ipcsim against the original IPC program: the same scripts, one after the other.
 
     python -m benchmarks.vs_original [--only SUBSTRING] [--repeats N] [--out DIR]
-        [--work DIR] [--ipc-lib-path DIRS] [--threads N] [--timeout S]
-        [--compare-rtol R] [--no-warmup] [--smoke]
+        [--work DIR] [--ipc-lib-path DIRS] [--threads N] [--timeout S] [--duration S]
+        [--compare-rtol R] [--via-run-ipc] [--no-warmup] [--smoke]
 
-Runs every scene of :data:`SCENES` through the original program
-(``../shared/ipc-original/run-ipc.sh SCRIPT OUTDIR THREADS``) and through
-``ipcsim run SCRIPT -o OUTDIR`` (a subprocess, as a user runs it), alternately, from a
+Runs every scene of :data:`SCENES` through the original program (the command
+``../shared/ipc-original/run-ipc.sh SCRIPT OUTDIR THREADS`` runs, made the way it makes it,
+so that the program's own process is timed; ``--via-run-ipc`` runs the script itself) and
+through ``ipcsim run SCRIPT -o OUTDIR`` (a subprocess, as a user runs it), alternately, from a
 working folder whose ``input/`` holds the original's example meshes
 (``../shared/ipc-examples/input``) and this repository's ``input/meshes``, so that the
 example scripts and the hello world both find their meshes. A scene with a shortening in
@@ -44,6 +45,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
 import datetime
 import math
 import os
@@ -88,31 +90,31 @@ SCENES = (
     Scene("", "tutorialExamples/**/*.txt", None, 3),
     Scene("paperExamples/10_cubeStack", "paperExamples/10_cubeStack.txt", None, 3),
     Scene("paperExamples/2_matKnives", "paperExamples/2_matKnives.txt"),
-    Scene("otherExamples/barTwist_noCollisions, 2 s",
+    Scene("otherExamples/barTwist_noCollisions",
           "otherExamples/barTwist_noCollisions.txt", (2.0, 0.025)),
-    Scene("mat40x40_twist, 2 s", "paperExamples/21_scalability/mat40x40_twist.txt",
+    Scene("mat40x40_twist", "paperExamples/21_scalability/mat40x40_twist.txt",
           (2.0, 0.04)),
-    Scene("tb1 rodsTwist h = 0.002, 1 s",
+    Scene("tb1 rodsTwist h = 0.002",
           "paperExamples/tb1_diffDt/rodsTwist_E1e4_dt0.002.txt", (1.0, 0.002)),
-    Scene("tb1 rodsTwist h = 0.005, 1 s",
+    Scene("tb1 rodsTwist h = 0.005",
           "paperExamples/tb1_diffDt/rodsTwist_E1e4_dt0.005.txt", (1.0, 0.005)),
-    Scene("tb1 rodsTwist h = 0.01, 1 s",
+    Scene("tb1 rodsTwist h = 0.01",
           "paperExamples/tb1_diffDt/rodsTwist_E1e4_dt0.01.txt", (1.0, 0.01)),
-    Scene("tb1 rodsTwist h = 0.025, 3 s",
+    Scene("tb1 rodsTwist h = 0.025",
           "paperExamples/tb1_diffDt/rodsTwist_E1e4_dt0.025.txt", (3.0, 0.025)),
-    Scene("tb1 rodsTwist h = 0.05, 3 s",
+    Scene("tb1 rodsTwist h = 0.05",
           "paperExamples/tb1_diffDt/rodsTwist_E1e4_dt0.05.txt", (3.0, 0.05)),
-    Scene("tb1 rodsTwist h = 0.1, 3 s",
+    Scene("tb1 rodsTwist h = 0.1",
           "paperExamples/tb1_diffDt/rodsTwist_E1e4_dt0.1.txt", (3.0, 0.1)),
-    Scene("tb1 rodsTwist h = 0.2, 3 s",
+    Scene("tb1 rodsTwist h = 0.2",
           "paperExamples/tb1_diffDt/rodsTwist_E1e4_dt0.2.txt", (3.0, 0.2)),
-    Scene("tb1 rodsTwist h = 0.5, 3 s",
+    Scene("tb1 rodsTwist h = 0.5",
           "paperExamples/tb1_diffDt/rodsTwist_E1e4_dt0.5.txt", (3.0, 0.5)),
-    Scene("tb1 rodsTwist h = 1, 3 s",
+    Scene("tb1 rodsTwist h = 1",
           "paperExamples/tb1_diffDt/rodsTwist_E1e4_dt1.txt", (3.0, 1.0)),
     Scene("tb1 rodsTwist h = 2, 6 s",
           "paperExamples/tb1_diffDt/rodsTwist_E1e4_dt2.txt"),
-    Scene("paperExamples/20_pencilStickSlip, 0.5 s",
+    Scene("paperExamples/20_pencilStickSlip",
           "paperExamples/20_pencilStickSlip.txt", (0.5, 0.001)),
     Scene("hello world (input/two_cubes_fall.txt)", "input/two_cubes_fall.txt", root="repo"),
 )
@@ -122,9 +124,9 @@ SCENES = (
 WARMUP = ("tutorialExamples/2cubesFall.txt", "paperExamples/10_cubeStack.txt")
 
 # --smoke: a few seconds of simulation; the hello world when the examples are absent
-SMOKE = Scene("tutorialExamples/2cubesFall, 0.5 s", "tutorialExamples/2cubesFall.txt",
+SMOKE = Scene("tutorialExamples/2cubesFall", "tutorialExamples/2cubesFall.txt",
               (0.5, 0.025))
-SMOKE_REPO = Scene("hello world, 2 steps", "input/two_cubes_fall.txt", (0.05, 0.025),
+SMOKE_REPO = Scene("hello world", "input/two_cubes_fall.txt", (0.05, 0.025),
                    root="repo")
 PROGRAMS = ("original", "ipcsim")
 
@@ -136,6 +138,7 @@ class Settings:
     timeout: float = 1800.0
     lib_path: str = ""
     compare_rtol: float = 1e-3
+    via_script: bool = False  # the original through run-ipc.sh (its start-up timed too)
     say: object = print  # progress messages
 
 
@@ -151,6 +154,7 @@ class Run:
     newton_per_step: float | None = None
     contacts_mean: float | None = None
     vertices: int | None = None
+    own_peak_mb: float | None = None  # the original's own figure (info.txt)
 
 
 @dataclass
@@ -188,7 +192,19 @@ def expand(scenes=SCENES) -> list[tuple[Scene, Path]]:
 
 
 def label(scene: Scene) -> str:
-    return scene.name or scene.script.removesuffix(".txt")
+    """The scene's name in the table: its name or script, and the shortened duration."""
+    name = scene.name or scene.script.removesuffix(".txt")
+    return f"{name}, {scene.shorten[0]:g} s" if scene.shorten else name
+
+
+def cut_to(scene: Scene, source: Path, duration: float) -> Scene:
+    """The scene shortened to at most ``duration`` seconds at its own dt (``--duration``)."""
+    from ipcsim.scene import load_scene
+
+    spec = load_scene(source)
+    if duration >= (scene.shorten[0] if scene.shorten else spec.duration):
+        return scene
+    return dataclasses.replace(scene, shorten=(duration, spec.dt))
 
 
 def shortened(text: str, duration: float, dt: float) -> str:
@@ -295,10 +311,32 @@ def _fresh(folder: Path) -> Path:
     return folder
 
 
+def original_invocation(script: Path, out: Path, cwd: Path, s: Settings) -> tuple:
+    """(command, folder to run it in, log file) for the original on ``script``.
+
+    Through run-ipc.sh with ``via_script``; otherwise the command run-ipc.sh runs, made
+    the same way (a scratch folder whose ``input`` is ``cwd``'s, a copy of the script,
+    stdout.txt in OUTDIR), so that the time and memory measured are the program's alone:
+    run-ipc.sh's own timing includes a bash and a python3 start, which takes as long as
+    the whole of a tiny scene where python3 is a version manager's shim."""
+    out.mkdir(parents=True)
+    if s.via_script:
+        return (["bash", str(ORIGINAL / "run-ipc.sh"), str(script), str(out), str(s.threads)],
+                cwd, out.with_name("original.log"))
+    scratch = _fresh(out.with_name("original_cwd"))
+    scratch.mkdir()
+    (scratch / "input").symlink_to((cwd / "input").resolve(), target_is_directory=True)
+    shutil.copyfile(script, scratch / "scene.txt")
+    cmd = [str(ORIGINAL / "IPC_bin"), "100", str(scratch / "scene.txt"), "--output",
+           str(out.resolve()), "--numThreads", str(s.threads), "--logLevel", "info",
+           "--noProgressBar"]
+    return cmd, scratch, out / "stdout.txt"
+
+
 def run_original(script: Path, out: Path, cwd: Path, s: Settings) -> Run:
-    cmd = ["bash", str(ORIGINAL / "run-ipc.sh"), str(script), str(_fresh(out)), str(s.threads)]
-    rc, wall, peak = run_timed(cmd, cwd, original_env(s.lib_path, s.threads),
-                               out.with_name("original.log"), s.timeout)
+    cmd, where, log = original_invocation(script, _fresh(out), cwd, s)
+    rc, wall, peak = run_timed(cmd, where, original_env(s.lib_path, s.threads), log,
+                               s.timeout)
     run = Run(rc, wall, peak)
     read_original(out, run)
     return run
@@ -370,8 +408,11 @@ def read_original(out: Path, run: Run) -> None:
         run.steps_wall_s = float(m.group(1))
     info = out / "info.txt"
     if info.is_file():
-        head = info.read_text(errors="replace").split()
+        text = info.read_text(errors="replace")
+        head = text.split()
         run.vertices = int(head[0]) if head and head[0].isdigit() else None
+        if m := re.search(r"peak (\d+) KB", text):
+            run.own_peak_mb = int(m.group(1)) / 1024.0
     if (out / "stdout.txt").is_file():
         run.contacts_mean = original_contacts(out / "stdout.txt")
 
@@ -382,14 +423,18 @@ def compare(ipcsim_out: Path, original_out: Path, rtol: float) -> dict:
     largest difference over the frames, as a fraction of the scene size."""
     from ipcsim.io.compare import CompareError, compare_runs
 
+    def short(text: str) -> str:  # no folder of this machine in the table
+        return text.replace(str(ipcsim_out), "ipcsim's output").replace(
+            str(original_out), "the original's output")
+
     try:
         res = compare_runs(ipcsim_out, original_out, rtol=rtol)
     except CompareError as exc:
-        return {"verdict": "cannot", "message": str(exc)}
+        return {"verdict": "cannot", "message": short(str(exc))}
     except Exception as exc:  # a damaged or missing frame of a failed run
-        return {"verdict": "cannot", "message": f"{type(exc).__name__}: {exc}"}
+        return {"verdict": "cannot", "message": short(f"{type(exc).__name__}: {exc}")}
     out = {"verdict": "same" if res.first_frame_diff is None else "different",
-           "frames": len(res.steps), "message": res.first_frame_diff or ""}
+           "frames": len(res.steps), "message": short(res.first_frame_diff or "")}
     if res.steps:
         k = max(range(len(res.steps)), key=res.max_rel.__getitem__)
         out.update(max_rel=res.max_rel[k], max_step=res.steps[k])
@@ -403,13 +448,14 @@ def compare(ipcsim_out: Path, original_out: Path, rtol: float) -> dict:
 
 
 def can_run_original(stage: Path, s: Settings) -> str | None:
-    """None when the original program runs here, else why not: tried once on two steps
-    of the hello world; on failure, what ``ldd`` says is missing."""
+    """None when the original program runs here, else why not: tried once through
+    run-ipc.sh on two steps of the hello world; on failure, what ``ldd`` says is
+    missing."""
     if not (ORIGINAL / "run-ipc.sh").is_file() or not (ORIGINAL / "IPC_bin").is_file():
         return f"the original program is not installed ({ORIGINAL} is missing)"
     probe = stage_scene(SMOKE_REPO, REPO_ROOT / SMOKE_REPO.script, stage)
     run = run_original(probe.script, s.work / "probe" / "original", stage,
-                       Settings(s.work, s.threads, 120.0, s.lib_path))
+                       dataclasses.replace(s, timeout=120.0, via_script=True))
     if run.rc == 0 and run.steps:
         return None
     why = f"the original program does not run here (exit status {run.rc})"
@@ -469,7 +515,7 @@ def summarise(st: Staged, verdict: dict) -> dict:
         row.update({f"{program}_{k}": getattr(last, k) for k in
                     ("rc", "steps", "newton_per_step", "contacts_mean", "vertices")})
         row.update({f"{program}_{k}": _median(runs, k) for k in
-                    ("wall_s", "steps_wall_s", "peak_mb")})
+                    ("wall_s", "steps_wall_s", "peak_mb", "own_peak_mb")})
         row[f"{program}_wall_all"] = " ".join(f"{r.wall_s:.3f}" for r in runs)
         if any(r.rc != 0 for r in runs):
             row[f"{program}_rc"] = next(r.rc for r in runs if r.rc != 0)
@@ -591,7 +637,8 @@ CSV_FIELDS = (
     "original_steps", "ipcsim_steps", "original_wall_s", "ipcsim_wall_s", "ratio",
     "original_steps_wall_s", "ipcsim_steps_wall_s", "steps_ratio",
     "original_newton_per_step", "ipcsim_newton_per_step", "original_contacts_mean",
-    "ipcsim_contacts_mean", "original_peak_mb", "ipcsim_peak_mb", "original_rc", "ipcsim_rc",
+    "ipcsim_contacts_mean", "original_peak_mb", "ipcsim_peak_mb", "original_own_peak_mb",
+    "original_rc", "ipcsim_rc",
     "original_wall_all", "ipcsim_wall_all", "compare_verdict", "compare_first_step",
     "compare_first_time", "compare_max_rel", "compare_max_step", "compare_message",
     "date", "cpu", "cores", "load_before", "load_after", "threads")
@@ -647,13 +694,16 @@ def write_outputs(rows: list[dict], info: dict, s: Settings, out: Path) -> list[
 # ------------------------------------------------------------------------ main
 
 
-def select(only: list[str] | None, smoke: bool) -> list[tuple[Scene, Path]]:
-    if smoke:
-        found = expand((SMOKE,))
-        return found or expand((SMOKE_REPO,))
+def select(args) -> list[tuple[Scene, Path]]:
+    """The scenes to run: --smoke's, or the table's matching --only, cut to --duration."""
+    if args.smoke:
+        return expand((SMOKE,)) or expand((SMOKE_REPO,))
     found = expand()
-    if only:
-        found = [(sc, p) for sc, p in found if any(o in label(sc) or o in str(p) for o in only)]
+    if args.only:
+        found = [(sc, p) for sc, p in found
+                 if any(o in label(sc) or o in str(p) for o in args.only)]
+    if args.duration:
+        found = [(cut_to(sc, p, args.duration), p) for sc, p in found]
     return found
 
 
@@ -677,6 +727,12 @@ def parse_args(argv):
     ap.add_argument("--compare-rtol", type=float, default=1e-3, metavar="R",
                     help="trajectories part where a vertex differs by more than R of the "
                     "scene size (default 1e-3)")
+    ap.add_argument("--duration", type=float, metavar="S",
+                    help="cut every scene to at most S seconds of simulated time, at its "
+                    "own dt (a quick look; the table's shortenings otherwise)")
+    ap.add_argument("--via-run-ipc", action="store_true",
+                    help="run the original through run-ipc.sh (default: its command, "
+                    "made the same way, so that the program alone is timed)")
     ap.add_argument("--no-warmup", action="store_true",
                     help="no untimed ipcsim runs first (measures numba compiling too)")
     ap.add_argument("--smoke", action="store_true",
@@ -686,8 +742,9 @@ def parse_args(argv):
 
 def run_benchmark(args, work: Path) -> tuple[list[dict], dict, Settings] | None:
     """Stage, check the original, warm up, measure. None when skipped (said why)."""
-    s = Settings(work, args.threads, args.timeout, args.ipc_lib_path, args.compare_rtol)
-    found = select(args.only, args.smoke)
+    s = Settings(work, args.threads, args.timeout, args.ipc_lib_path, args.compare_rtol,
+                 args.via_run_ipc)
+    found = select(args)
     if not found:
         print("vs_original: no scene matches (are ../shared/ipc-examples there?)")
         return None

@@ -9,6 +9,8 @@ through both programs."""
 from __future__ import annotations
 
 import csv
+import dataclasses
+import os
 
 import pytest
 from examples import IPC_EXAMPLES
@@ -73,7 +75,7 @@ def test_ipcsim_half_and_the_written_table(tmp_path):
     table = paths[1].read_text()
     assert "Machine: " in table and "load average" in table
     cells = [c.strip() for c in table.splitlines()[-1].strip("|").split("|")]
-    assert cells[:3] == ["hello world, 2 steps", "432", "2"]
+    assert cells[:3] == ["hello world, 0.05 s", "432", "2"]
     assert cells[3] == "–" and cells[5] == "–" and cells[-1] == "not compared"
     with open(paths[0], newline="") as f:
         (written,) = list(csv.DictReader(f))
@@ -98,3 +100,30 @@ def test_both_programs_on_a_tiny_scene(tmp_path, capsys):
         assert float(row[f"{program}_peak_mb"]) > 1
     assert row["compare_verdict"] in ("same", "different")
     assert float(row["compare_max_rel"]) >= 0
+
+
+def test_the_original_run_directly_is_the_run_of_run_ipc_sh(tmp_path):
+    if not IPC_EXAMPLES.is_dir():
+        pytest.skip("../shared/ipc-examples is not present")
+    stage = vs.stage_input(tmp_path)
+    s = vs.Settings(tmp_path, lib_path=os.environ.get("IPC_LIB_PATH", ""))
+    why = vs.can_run_original(stage, s)
+    if why:
+        pytest.skip(why)
+    (scene, path), = vs.expand((vs.SMOKE,))
+    st = vs.stage_scene(scene, path, stage)
+    direct = vs.run_original(st.script, tmp_path / "direct" / "original", stage, s)
+    script = vs.run_original(st.script, tmp_path / "script" / "original", stage,
+                             dataclasses.replace(s, via_script=True))
+    assert direct.rc == script.rc == 0
+    assert (direct.steps, direct.newton_per_step) == (script.steps, script.newton_per_step)
+    for name in ("20.obj", "status20"):
+        assert (tmp_path / "direct" / "original" / name).read_bytes() == \
+            (tmp_path / "script" / "original" / name).read_bytes()
+
+
+def test_without_the_original_it_says_so_and_exits_0(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(vs, "ORIGINAL", tmp_path / "no-such-program")
+    assert vs.main(["--smoke", "--work", str(tmp_path / "work")]) == 0
+    assert "vs_original: skipped: the original program is not installed" in \
+        capsys.readouterr().out
