@@ -654,7 +654,7 @@ def write_csv(rows: list[dict], info: dict, s: Settings, path: Path) -> None:
                         "threads": s.threads})
 
 
-def chart(rows: list[dict], path: Path) -> Path:
+def chart(rows: list[dict], info: dict, path: Path) -> Path:
     """ipcsim / original wall time per scene (whole process and steps only), log axis."""
     import matplotlib
     matplotlib.use("Agg")
@@ -671,6 +671,9 @@ def chart(rows: list[dict], path: Path) -> Path:
     ax.axvline(1.0, color="black", linewidth=1)
     ax.set_xscale("log")
     ax.set_yticks(y, [r["scene"] for r in shown], fontsize=7)
+    ax.set_ylim(-0.7, len(shown) - 0.3)
+    ax.set_title(f"ipcsim against the original program, {info['date'][:10]}, "
+                 f"{info['cores']} cores, load {info['load_before'].split(' ')[0]}", fontsize=9)
     ax.set_xlabel("ipcsim wall time / original wall time (below 1: ipcsim faster)")
     ax.legend(fontsize=8, loc="best")
     ax.grid(True, axis="x", which="both", alpha=0.3)
@@ -687,7 +690,7 @@ def write_outputs(rows: list[dict], info: dict, s: Settings, out: Path) -> list[
     write_csv(rows, info, s, paths[0])
     paths[1].write_text("<!-- written by `python -m benchmarks.vs_original` -->\n\n"
                         + describe(info, s) + "\n\n" + markdown(rows) + "\n", encoding="utf-8")
-    chart(rows, paths[2])
+    chart(rows, info, paths[2])
     return paths
 
 
