@@ -740,7 +740,12 @@ def parse_args(argv):
                     help="no untimed ipcsim runs first (measures numba compiling too)")
     ap.add_argument("--smoke", action="store_true",
                     help="one tiny scene, once, into a temporary folder")
-    return ap.parse_args(argv)
+    args = ap.parse_args(argv)
+    for name in ("repeats", "threads", "timeout", "duration"):
+        value = getattr(args, name)
+        if value is not None and not value > 0:
+            ap.error(f"--{name} must be positive")
+    return args
 
 
 def run_benchmark(args, work: Path) -> tuple[list[dict], dict, Settings] | None:
