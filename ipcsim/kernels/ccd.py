@@ -62,6 +62,7 @@ import numpy as np
 from numba import njit, prange
 
 from ipcsim.kernels import distance as _d
+from ipcsim.kernels.twin import running_parallel
 
 DEFAULT_MIN_GAP_FRACTION = 0.1
 DEFAULT_MAX_ITERATIONS = 10_000
@@ -249,9 +250,15 @@ def _advance_serial(x0, x1, stencils, n_pt, state, active, params):
         _advance_chunk(x0, x1, stencils, n_pt, state, active, params, c)
 
 
+def _in_parallel(n_queries: int) -> bool:
+    """Many queries on more than one thread (``twin.running_parallel``): a parallel launch
+    costs more than a few queries do, and a serial run compiles no parallel variant."""
+    return running_parallel() and n_queries > _SERIAL_BELOW
+
+
 def _init(x0, x1, stencils, n_pt):
     state = np.empty((stencils.shape[0], 5))
-    run = _init_parallel if stencils.shape[0] > _SERIAL_BELOW else _init_serial
+    run = _init_parallel if _in_parallel(stencils.shape[0]) else _init_serial
     run(x0, x1, stencils, n_pt, state)
     return state
 
@@ -259,7 +266,7 @@ def _init(x0, x1, stencils, n_pt):
 def _advance(x0, x1, stencils, n_pt, state, active, params):
     """Advance the ``active`` queries; params = (t_max, iterations, min gap fraction)."""
     # a few queries run serially: a parallel launch costs more than they do
-    run = _advance_parallel if active.shape[0] > _SERIAL_BELOW else _advance_serial
+    run = _advance_parallel if _in_parallel(active.shape[0]) else _advance_serial
     run(x0, x1, stencils, n_pt, state, active, np.array(params, dtype=np.float64))
 
 

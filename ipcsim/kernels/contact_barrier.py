@@ -44,6 +44,7 @@ from ipcsim.kernels.mollifier import (
     mollifier_scalar_first_derivative,
     mollifier_scalar_second_derivative,
 )
+from ipcsim.kernels.twin import kernel
 
 HESSIAN_BLOCK = 144  # triplets per active pair (12 x 12 local Hessian)
 
@@ -275,7 +276,7 @@ def write_hessian_block(rows, cols, vals, base, pair, H):
 # Batched kernels
 # =========================================================================================
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@kernel(parallel=True, error_model="numpy")
 def classify_and_distance(x, pt_pairs, ee_pairs):
     """Distance type (ipctk enum codes) and squared distance of every candidate pair.
     Returns (pt_type (k,) int64, pt_d2 (k,), ee_type (j,) int64, ee_d2 (j,)); a pair is
@@ -293,7 +294,7 @@ def classify_and_distance(x, pt_pairs, ee_pairs):
     return pt_type, pt_d2, ee_type, ee_d2
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@kernel(parallel=True, error_model="numpy")
 def barrier_value(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa):
     """Σ κ m b(d², ŝ) over the active pairs (m ≡ 1 for point-triangle).
     Per-pair terms go to an array first so that the sum is deterministic."""
@@ -307,7 +308,7 @@ def barrier_value(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa):
     return terms.sum()
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@kernel(parallel=True, error_model="numpy")
 def _local_gradients(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa):
     # (k + j, 12) local gradients (zero rows for inactive pairs); row i written by i only
     k = pt_pairs.shape[0]
@@ -324,14 +325,14 @@ def _local_gradients(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa):
     return G
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def barrier_gradient(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa):
     """∇B as a flat (3n,) vector: local gradients in parallel, then a serial scatter."""
     G = _local_gradients(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa)
     return scatter_stencil_gradients(G, pt_pairs, ee_pairs, x.shape[0])
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@kernel(parallel=True, error_model="numpy")
 def barrier_hessian_triplets(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa, project):
     """∇²B as COO triplets (rows, cols, vals), int64/int64/float64.
 

@@ -55,6 +55,7 @@ from numba import njit, prange
 
 from ipcsim.kernels.linalg import cofactor3, det3, tet_edge_matrix
 from ipcsim.kernels.scatter import scatter_local_gradients
+from ipcsim.kernels.twin import kernel
 
 NEO_HOOKEAN = 0
 FIXED_COROTATED = 1
@@ -447,7 +448,7 @@ def _tet_hessian(F, Dm_inv_e, vol, mu, lam, model, project_psd, H, S):
 # --------------------------------------------------------------------------------------
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def elastic_energy_per_tet(x, tets, Dm_inv, volumes, lame, model):
     """E_e = V_rest Ψ(F_e) for every tet, (m,); +∞ for an NH tet with J ≤ 0."""
     m = tets.shape[0]
@@ -467,7 +468,7 @@ def elastic_energy_per_tet(x, tets, Dm_inv, volumes, lame, model):
     return out
 
 
-@njit(cache=True)
+@kernel()
 def elastic_energy(x, tets, Dm_inv, volumes, lame, model):
     """Σₑ V_rest Ψ(Fₑ), summed serially in tet order (deterministic)."""
     per = elastic_energy_per_tet(x, tets, Dm_inv, volumes, lame, model)
@@ -477,7 +478,7 @@ def elastic_energy(x, tets, Dm_inv, volumes, lame, model):
     return total
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def elastic_local_gradients(x, tets, Dm_inv, volumes, lame, model):
     """Per-tet gradients (m, 12), local DOF 3·v + a: ∂E/∂x_{c+1} = V_rest (P Dm⁻ᵀ)[:, c],
     ∂E/∂x₀ = −Σ_c of those."""
@@ -511,7 +512,7 @@ def elastic_local_gradients(x, tets, Dm_inv, volumes, lame, model):
     return out
 
 
-@njit(cache=True)
+@kernel()
 def elastic_gradient(x, tets, Dm_inv, volumes, lame, model):
     """∂E/∂x as a flat (3n,) vector, DOF 3i + a: per-tet gradients in parallel, then the
     shared serial scatter (``scatter.scatter_local_gradients``)."""
@@ -519,7 +520,7 @@ def elastic_gradient(x, tets, Dm_inv, volumes, lame, model):
     return scatter_local_gradients(local, tets, x.shape[0])
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def tet_hessian_pattern(tets):
     """Rows and cols (int64, 144 m) of the element Hessians: entry 144e + 12r + c is
     (global DOF of local r, global DOF of local c), local DOF r = 3·v + a."""
@@ -536,7 +537,7 @@ def tet_hessian_pattern(tets):
     return rows, cols
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def elastic_hessian_values(x, tets, Dm_inv, volumes, lame, model, project_psd):
     """Values (144 m,) of the element Hessians, in the order of ``tet_hessian_pattern``;
     each 12×12 block projected to PSD when project_psd."""
@@ -559,7 +560,7 @@ def elastic_hessian_values(x, tets, Dm_inv, volumes, lame, model, project_psd):
     return vals
 
 
-@njit(cache=True)
+@kernel()
 def elastic_hessian(x, tets, Dm_inv, volumes, lame, model, project_psd):
     """COO triplets (rows, cols, vals) of ∂²E/∂x², 144 per tet at offset 144e."""
     rows, cols = tet_hessian_pattern(tets)
@@ -700,7 +701,7 @@ def _first_nonpositive(a, b, c, d):
     return 1.0
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def max_step_per_tet(x, p, tets, min_volume_ratio):
     """Per-tet bound (m,): largest α ∈ [0, 1] with det Ds(x + t p) > r det Ds(x) on [0, α)
     (r = min_volume_ratio ∈ [0, 1)); 0 for a tet that is already inverted or flat."""
@@ -736,7 +737,7 @@ def max_step_per_tet(x, p, tets, min_volume_ratio):
     return out
 
 
-@njit(cache=True)
+@kernel()
 def max_step_no_inversion(x, p, tets, min_volume_ratio):
     """Largest α ∈ [0, 1] such that every tet keeps det Ds(x + t p) > r · det Ds(x) for all
     t ∈ [0, α) (r = min_volume_ratio; the original IPC uses r = 0.1, i.e. no tet loses more

@@ -49,6 +49,7 @@ from ipcsim.kernels.distance import (
 from ipcsim.kernels.linalg import cross3, dot3, scale3, squared_norm3, sub3
 from ipcsim.kernels.mollifier import edge_edge_cross_sq
 from ipcsim.kernels.scatter import scatter_local_gradients
+from ipcsim.kernels.twin import kernel
 
 
 # =========================================================================================
@@ -164,7 +165,7 @@ def _lag_feature(x, pair, f, verts, coeffs, P):
     _basis_from_normal(n, P)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@kernel(parallel=True, error_model="numpy")
 def lag_mesh_pairs(x_lag, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa):
     """Lagged friction data of every PT pair then every EE pair at x_lag.
 
@@ -264,7 +265,7 @@ def _tangential(u, verts, coeffs, P):
             P[0, 1] * r0 + P[1, 1] * r1 + P[2, 1] * r2)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@kernel(parallel=True, error_model="numpy")
 def friction_value(u, verts, coeffs, basis, weight, eps):
     """D = Σ_k w_k f0(|P_kᵀ r_k|, ε); per-pair terms summed in a fixed order."""
     m = verts.shape[0]
@@ -275,7 +276,7 @@ def friction_value(u, verts, coeffs, basis, weight, eps):
     return terms.sum()
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@kernel(parallel=True, error_model="numpy")
 def _local_gradients(u, verts, coeffs, basis, weight, eps):
     # row k (12,): c_i w (f1/y) P τ on stencil vertex i (unused slots, verts = −1, hold
     # c_i = 0 times it; the scatter skips them)
@@ -292,7 +293,7 @@ def _local_gradients(u, verts, coeffs, basis, weight, eps):
     return G
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def friction_gradient(u, verts, coeffs, basis, weight, eps):
     """∇D (3n,): ∇_{u_i} D_k = c_i w (f1/y) P τ. Per-pair gradients in parallel, then the
     shared serial scatter (``scatter.scatter_local_gradients``; unused slots, −1, skipped)."""
@@ -363,7 +364,7 @@ def _hessian_into(u, verts, coeffs, P, w, eps, project, rows, cols, vals, base):
             vals[o] = coeffs[i] * coeffs[j] * K[a, b]
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@kernel(parallel=True, error_model="numpy")
 def friction_hessian_triplets(u, verts, coeffs, basis, weight, eps, project, offsets):
     """∇²D as COO triplets (rows, cols, vals); pair k writes the slots
     [offsets[k], offsets[k+1]) only (parallel, disjoint). With `project` every local

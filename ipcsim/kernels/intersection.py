@@ -59,6 +59,7 @@ from numba import njit
 
 from ipcsim.kernels.broad_phase import build_bvh, primitive_boxes, query_bvh
 from ipcsim.kernels.linalg import tet_signed_volumes
+from ipcsim.kernels.twin import kernel
 
 _EPS = 2.0**-53
 _O3D_ERRBOUND = (7.0 + 56.0 * _EPS) * _EPS  # Shewchuk o3derrboundA
@@ -488,7 +489,7 @@ def _body_tags(n, body):
     return tags
 
 
-@njit(cache=True)
+@kernel()
 def edge_triangle_candidates(x, edges, triangles, edge_body, triangle_body):
     """Pairs (edge, triangle) whose closed bounding boxes overlap and that share no vertex
     index, as an (m, 2) array. With nonempty body arrays, pairs whose edge and triangle

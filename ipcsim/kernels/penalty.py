@@ -52,6 +52,7 @@ from ipcsim.kernels.plane_contact import (
     signed_distance,
 )
 from ipcsim.kernels.scatter import scatter_stencil_gradients
+from ipcsim.kernels.twin import kernel
 
 
 # =========================================================================================
@@ -151,7 +152,7 @@ def _pair_hessian_into(x, pair, is_pt, dhat, k, project, rows, cols, vals, base)
     write_hessian_block(rows, cols, vals, base, pair, H)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@kernel(parallel=True, error_model="numpy")
 def mesh_penalty_value(x, pt_pairs, ee_pairs, dhat, k):
     """Σ ½ k (d̂ − d)² over the pairs closer than d̂ (per-pair terms summed in order, so
     the value is deterministic)."""
@@ -164,7 +165,7 @@ def mesh_penalty_value(x, pt_pairs, ee_pairs, dhat, k):
     return terms.sum()
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@kernel(parallel=True, error_model="numpy")
 def _local_gradients(x, pt_pairs, ee_pairs, dhat, k):
     n_pt = pt_pairs.shape[0]
     G = np.empty((n_pt + ee_pairs.shape[0], 12))
@@ -175,14 +176,14 @@ def _local_gradients(x, pt_pairs, ee_pairs, dhat, k):
     return G
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def mesh_penalty_gradient(x, pt_pairs, ee_pairs, dhat, k):
     """∇P as a flat (3n,) vector: local gradients in parallel, then a serial scatter."""
     G = _local_gradients(x, pt_pairs, ee_pairs, dhat, k)
     return scatter_stencil_gradients(G, pt_pairs, ee_pairs, x.shape[0])
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@kernel(parallel=True, error_model="numpy")
 def mesh_penalty_hessian(x, pt_pairs, ee_pairs, dhat, k, project):
     """∇²P as COO triplets, 144 per active pair (d < d̂), active point–triangle pairs
     first; the same layout as ``contact_barrier.barrier_hessian_triplets``."""
@@ -224,7 +225,7 @@ def _solid_angle(p, a, b, c):
     return 2.0 * np.arctan2(det, den)
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def penetration_depths(x, query, triangles):
     """For each query vertex, its distance to the closed, outward-oriented surface
     ``triangles`` when it lies inside it (winding number > ½), else 0."""

@@ -14,6 +14,7 @@ import numpy as np
 from numba import njit, prange
 
 from .barrier import barrier, barrier_first_derivative, barrier_second_derivative
+from .twin import kernel
 
 
 @njit(cache=True)
@@ -130,7 +131,7 @@ def plane_active_count_and_min_distance(x, vertices, origins, normals, s_hat):
     return count, dmin
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def plane_ccd_max_step(x, p, vertices, origins, normals, keep_fraction):
     """Largest α ≤ 1 such that every vertex keeps ≥ keep_fraction of its gap to each plane.
 
