@@ -6,8 +6,8 @@ against the folder; so a bad input leaves every folder as it was, and ``--overwr
 removes the old run only once the new one can start.
 
 Nothing is lost on a crash: each step's CSV rows are flushed before the next step starts,
-frames and the checkpoint are replaced atomically, and the checkpoint is written after
-its frame. ``--resume`` continues from the checkpoint (after a kill, even SIGKILL, or a
+frames and the checkpoint are replaced atomically, and a checkpoint (with a frame, at most
+every ``CHECKPOINT_SECONDS``, and at the end) first forces everything before it to disk. ``--resume`` continues from the checkpoint (after a kill, even SIGKILL, or a
 full disk), and Ctrl-C stops after the current step with a fresh checkpoint (exit status
 130).
 """
@@ -63,6 +63,11 @@ class StopRequest:
 
 
 MAX_STEP_WARNINGS = 10  # non-converged steps named on the terminal; run.json counts all
+# A checkpoint, which forces everything written before it to disk, at most this often
+# (wall seconds; and always at the last step and on Ctrl-C). Between checkpoints frames
+# and rows are replaced atomically but not forced to disk: a killed run resumes from the
+# last checkpoint and computes at most this much again.
+CHECKPOINT_SECONDS = 2.0
 
 
 @dataclass
@@ -80,6 +85,7 @@ class _Run:
     renderer: object = None
     warned: int = 0  # steps that did not converge, in this invocation
     newton_total: int = 0  # Newton iterations, in this invocation
+    checkpointed: float = 0.0  # wall clock of the last checkpoint
 
     @property
     def resume(self) -> bool:
@@ -146,7 +152,6 @@ def _open_output(run: _Run):
     """Start writing: a new run clears (``--overwrite``) and creates the folder and writes
     the scene, frame 0 and a checkpoint; a resumed one drops what followed its
     checkpoint. Returns the open step and Newton logs."""
-    from ..io.checkpoint import write_checkpoint
     from ..io.csv_log import NewtonLog, StepLog
     from ..io.output_folder import prepare_output_folder
     from ..io.resume import remove_temporaries
@@ -171,7 +176,7 @@ def _open_output(run: _Run):
         keep = (lambda row: int(row["step"]) <= run.first_step)
     else:
         _write_frame(run, 0)
-        write_checkpoint(out, run.sim.state, run.digest)
+        _checkpoint(run)
     return (StepLog(out / StepLog.FILE_NAME, keep_rows=keep),
             NewtonLog(out / NewtonLog.FILE_NAME, keep_rows=keep))
 
@@ -193,10 +198,20 @@ def _warn_about(run: _Run, row: dict, k: int) -> None:
     print(f"warning: step {k} did not converge ({why}){more}", file=sys.stderr, flush=True)
 
 
-def _step_loop(run: _Run, step_log, newton_log, progress, stop) -> None:
-    """Steps until the last one; KeyboardInterrupt once a Ctrl-C'd step is saved."""
+def _checkpoint(run: _Run, logs=()) -> None:
+    """Force the frames and rows written so far to disk, then write the checkpoint: the
+    state a resumed run starts from, never ahead of the output it comes after."""
     from ..io.checkpoint import write_checkpoint
 
+    run.frames.sync()
+    for log in logs:
+        log.sync()
+    write_checkpoint(run.out, run.sim.state, run.digest)
+    run.checkpointed = time.perf_counter()
+
+
+def _step_loop(run: _Run, step_log, newton_log, progress, stop) -> None:
+    """Steps until the last one; KeyboardInterrupt once a Ctrl-C'd step is saved."""
     sim, n_steps = run.sim, run.n_steps
     while sim.state.step < n_steps:
         report = sim.step()
@@ -208,11 +223,12 @@ def _step_loop(run: _Run, step_log, newton_log, progress, stop) -> None:
         run.newton_total += row["newton_iterations"]
         _warn_about(run, row, k)
         stopping = stop.requested and k < n_steps  # read once: Ctrl-C may come now
-        if k % run.every == 0 or k == n_steps:
+        framed = k % run.every == 0 or k == n_steps
+        if framed:
             _write_frame(run, k)
-            write_checkpoint(run.out, sim.state, run.digest)
-        elif stopping:
-            write_checkpoint(run.out, sim.state, run.digest)  # resume here, not the frame
+        due = framed and time.perf_counter() - run.checkpointed >= CHECKPOINT_SECONDS
+        if due or k == n_steps or stopping:  # stopping: resume here, not at the frame
+            _checkpoint(run, (step_log, newton_log))
         progress.update(k, k * run.scene.dt, row["newton_iterations"], row["contacts_total"])
         if stopping:
             raise KeyboardInterrupt
@@ -220,6 +236,7 @@ def _step_loop(run: _Run, step_log, newton_log, progress, stop) -> None:
 
 def _simulate(run: _Run, say) -> tuple[int, str | None, str | None]:
     """Open the output, run the steps; (exit status, failure for run.json, message)."""
+    from ..kernels.compiling import compile_seconds
     from .progress import RunProgress
 
     args = run.args
@@ -233,7 +250,8 @@ def _simulate(run: _Run, say) -> tuple[int, str | None, str | None]:
             f"  step {it['step']} it {it['iteration']}: alpha={it['alpha']:.3g} "
             f"|p|={it['step_inf_norm']:.3e} tol={it['tolerance']:.3e} "
             f"contacts={it['contacts_total']} kappa={it['kappa']:.3g}", flush=True)
-    progress = RunProgress(run.first_step, run.n_steps, RunProgress.mode_for(args.quiet))
+    progress = RunProgress(run.first_step, run.n_steps, RunProgress.mode_for(args.quiet),
+                           compiled=compile_seconds)
     with step_log, newton_log, StopRequest() as stop:
         try:
             _step_loop(run, step_log, newton_log, progress, stop)
@@ -291,6 +309,8 @@ def main(args) -> int:
 
     say = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
     wall0, started = time.perf_counter(), now_iso()
+    if not args.quiet:
+        _tell_when_compiling()
     run = _build(args)  # everything is checked before the first byte is written
     try:
         status, failure, message = _simulate(run, say)
@@ -306,6 +326,15 @@ def main(args) -> int:
             print(f"warning: {run.warned} steps did not converge (run.json: "
                   "steps_not_converged)", file=sys.stderr)
     return status
+
+
+def _tell_when_compiling() -> None:
+    """Say once why a first run after installing is slow (numba compiles the kernels)."""
+    from ..kernels.compiling import when_compiling_starts
+
+    when_compiling_starts(lambda: print(
+        "ipcsim: compiling the numba kernels for this machine (once after installing; "
+        "later runs start at once)", file=sys.stderr, flush=True))
 
 
 def _output_error(run: _Run, exc: OSError | OutputError) -> OutputError:
