@@ -34,7 +34,7 @@ from ipcsim.kernels.distance import (
     point_triangle_distance_sq_hessian,
     point_triangle_distance_type,
 )
-from ipcsim.kernels.linalg import project_psd
+from ipcsim.kernels.linalg import ordered_sum, project_psd
 from ipcsim.kernels.scatter import scatter_stencil_gradients
 from ipcsim.kernels.mollifier import (
     edge_edge_cross_sq,
@@ -305,7 +305,7 @@ def barrier_value(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa):
         terms[i] = _pt_value_at(x, pt_pairs[i], s_hat, kappa)
     for i in prange(j):
         terms[k + i] = _ee_value_at(x, ee_pairs[i], ee_eps_x[i], s_hat, kappa)
-    return terms.sum()
+    return ordered_sum(terms)
 
 
 @kernel(parallel=True, error_model="numpy")

@@ -46,7 +46,7 @@ from ipcsim.kernels.distance import (
     POINT_POINT,
     PT_FEATURES,
 )
-from ipcsim.kernels.linalg import cross3, dot3, scale3, squared_norm3, sub3
+from ipcsim.kernels.linalg import cross3, dot3, ordered_sum, scale3, squared_norm3, sub3
 from ipcsim.kernels.mollifier import edge_edge_cross_sq
 from ipcsim.kernels.scatter import scatter_local_gradients
 from ipcsim.kernels.twin import kernel
@@ -273,7 +273,7 @@ def friction_value(u, verts, coeffs, basis, weight, eps):
     for k in prange(m):
         t0, t1 = _tangential(u, verts[k], coeffs[k], basis[k])
         terms[k] = weight[k] * f0(np.sqrt(t0 * t0 + t1 * t1), eps)
-    return terms.sum()
+    return ordered_sum(terms)
 
 
 @kernel(parallel=True, error_model="numpy")

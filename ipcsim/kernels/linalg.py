@@ -132,3 +132,13 @@ def project_psd(H):
             for j in range(i, n):
                 out[i, j] += vik * V[j, k]
     return symmetrize_from_upper(out)
+
+
+@njit(cache=True)
+def ordered_sum(a):
+    """Σ a[i] in index order: the same bits whether the caller runs in parallel or not
+    (inside a parallel kernel, ``a.sum()`` becomes a parallel reduction)."""
+    total = 0.0
+    for i in range(a.shape[0]):
+        total += a[i]
+    return total

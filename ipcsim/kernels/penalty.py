@@ -51,6 +51,7 @@ from ipcsim.kernels.plane_contact import (
     plane_distances,
     signed_distance,
 )
+from ipcsim.kernels.linalg import ordered_sum
 from ipcsim.kernels.scatter import scatter_stencil_gradients
 from ipcsim.kernels.twin import kernel
 
@@ -162,7 +163,7 @@ def mesh_penalty_value(x, pt_pairs, ee_pairs, dhat, k):
         terms[i] = _pair_value(x, pt_pairs[i], True, dhat, k)
     for i in prange(ee_pairs.shape[0]):
         terms[n_pt + i] = _pair_value(x, ee_pairs[i], False, dhat, k)
-    return terms.sum()
+    return ordered_sum(terms)
 
 
 @kernel(parallel=True, error_model="numpy")
