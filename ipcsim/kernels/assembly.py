@@ -87,3 +87,80 @@ def _summed(keys, vals, n):
         else:
             val[u] += vals[t]
     return col[:u + 1], row[:u + 1], val[:u + 1]
+
+
+# --- the fixed pattern of inertia, elasticity and damping -------------------------------
+
+@njit(cache=True)
+def count_free_columns(rows, cols, free_index, counts):
+    """counts[c + 1] += the triplets of free column c whose row is free too."""
+    for t in range(rows.shape[0]):
+        r = free_index[rows[t]]
+        c = free_index[cols[t]]
+        if r >= 0 and c >= 0:
+            counts[c + 1] += 1
+
+
+@njit(cache=True)
+def bucket_rows(rows, cols, free_index, fill, bucket):
+    """bucket[fill[c]] = r for every free-free triplet (r, c), fill[c] advancing."""
+    for t in range(rows.shape[0]):
+        r = free_index[rows[t]]
+        c = free_index[cols[t]]
+        if r >= 0 and c >= 0:
+            bucket[fill[c]] = r
+            fill[c] += 1
+
+
+@njit(cache=True)
+def unique_column_rows(start, bucket):
+    """CSC (indptr, indices) int32 of the distinct rows of each column's bucket
+    bucket[start[c]:start[c + 1]], sorted."""
+    n = start.shape[0] - 1
+    indptr = np.zeros(n + 1, dtype=np.int32)
+    indices = np.empty(bucket.shape[0], dtype=np.int32)
+    o = 0
+    for c in range(n):
+        rows = np.sort(bucket[start[c]:start[c + 1]])
+        for i in range(rows.shape[0]):
+            if i == 0 or rows[i] != rows[i - 1]:
+                indices[o] = rows[i]
+                o += 1
+        indptr[c + 1] = o
+    return indptr, indices[:o].copy()
+
+
+@njit(cache=True)
+def csc_slots(rows, cols, free_index, indptr, indices):
+    """The slot of every triplet in the CSC pattern (int32; −1 when its row or column is
+    kinematic), found by bisection in its column."""
+    slots = np.full(rows.shape[0], -1, dtype=np.int32)
+    for t in range(rows.shape[0]):
+        r = free_index[rows[t]]
+        c = free_index[cols[t]]
+        if r < 0 or c < 0:
+            continue
+        lo, hi = indptr[c], indptr[c + 1]
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if indices[mid] < r:
+                lo = mid + 1
+            else:
+                hi = mid
+        slots[t] = lo
+    return slots
+
+
+@njit(cache=True)
+def scatter_into_pattern(data, slots, vals, scale, rows, cols, free_index, p, coupling):
+    """data[slots[t]] += scale·vals[t]; a triplet of a free row and a kinematic column
+    adds scale·vals[t]·p[col] to the coupling of its row instead."""
+    for t in range(vals.shape[0]):
+        v = scale * vals[t]
+        s = slots[t]
+        if s >= 0:
+            data[s] += v
+            continue
+        r = free_index[rows[t]]
+        if r >= 0:
+            coupling[r] += v * p[cols[t]]

@@ -1,5 +1,4 @@
-"""Scatter-adds: COO values into a fixed sparse pattern; per-stencil gradients into a
-flat gradient.
+"""Scatter-adds of per-stencil gradients into a flat gradient.
 
 Every per-stencil gradient of the package (elastic tets, barrier and penalty contact pairs,
 friction pairs) is summed into the flat (3n,) gradient by ``add_local_gradients``: serial,
@@ -11,13 +10,6 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
-
-
-@njit(cache=True)
-def scatter_add(data, slots, vals, keep):
-    """data[slots[k]] += vals[keep[k]] for every kept triplet k."""
-    for k in range(slots.shape[0]):
-        data[slots[k]] += vals[keep[k]]
 
 
 @njit(cache=True)
