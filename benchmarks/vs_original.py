@@ -221,7 +221,7 @@ def shortened(text: str, duration: float, dt: float) -> str:
     return "".join(rows) + line
 
 
-def stage_input(work: Path) -> Path:
+def stage_input(work: Path, examples_input: Path = EXAMPLES_INPUT) -> Path:
     """``work/stage`` whose ``input/`` links every entry of the examples' ``input/`` and
     this repository's ``input/meshes``; the folder both programs run in."""
     stage = work / "stage"
@@ -229,7 +229,7 @@ def stage_input(work: Path) -> Path:
     if inp.exists() or inp.is_symlink():
         shutil.rmtree(inp) if inp.is_dir() and not inp.is_symlink() else inp.unlink()
     inp.mkdir(parents=True)
-    entries = sorted(EXAMPLES_INPUT.iterdir()) if EXAMPLES_INPUT.is_dir() else []
+    entries = sorted(examples_input.iterdir()) if examples_input.is_dir() else []
     entries += [p for p in (REPO_ROOT / "input").iterdir() if p.is_dir()]
     for src in entries:
         if not (inp / src.name).exists():
