@@ -123,7 +123,7 @@ class Simulation:
         kinematic, target = kinematic_targets(model, x, state.step * h, h)
         accel = np.zeros_like(x)
         accel += model.gravity
-        accel += nbc_accelerations(model, state.step * h)
+        accel += nbc_accelerations(model, state.step * h, x)
         accel[kinematic] = 0.0
         x_tilde = self.integrator.predict(x, state.v, state.a)
         x_tilde[kinematic] = target[kinematic]

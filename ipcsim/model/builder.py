@@ -211,9 +211,9 @@ def _build_model(scene: SceneSpec) -> Model:
                                         "(.msh, .vtk, .vtu or TetGen .node/.ele)")
     offsets = np.concatenate([[0], np.cumsum([len(p.points) for p in parts])]).astype(np.int64)
     rest, initial = _place_scene(scene, np.concatenate([p.points for p in parts]))
-    motion = _prescribed_motion(scene, parts, offsets, rest, initial, warnings)
     obstacles = [_load_obstacle(scene, len(parts) + k, ob)
                  for k, ob in enumerate(scene.mesh_obstacles)]
+    motion = _prescribed_motion(scene, parts, offsets, (rest, initial), obstacles, warnings)
     all_parts = parts + obstacles
     for ob in obstacles:  # fixed surfaces after the scene's shapes (never rescaled, §8.15)
         rest = np.concatenate([rest, ob.points])
@@ -283,13 +283,15 @@ def _place_scene(scene: SceneSpec, placed: np.ndarray) -> tuple[np.ndarray, np.n
 @dataclass
 class _Motion:
     """What is prescribed: DBC and NBC sets, mesh sequences, the always-kinematic mask,
-    and the initial positions (a legacy script may move them)."""
+    the initial positions and velocities (a legacy script may set them; None: from the
+    shapes' initVel)."""
 
     initial: np.ndarray
     always: np.ndarray
     dbc_sets: list = field(default_factory=list)
     nbc_sets: list = field(default_factory=list)
     sequences: list = field(default_factory=list)
+    velocities: np.ndarray | None = None
 
 
 def _label(scene: SceneSpec, i: int) -> str:
@@ -297,9 +299,11 @@ def _label(scene: SceneSpec, i: int) -> str:
     return f"shape {i + 1} ({spec.path or spec.mesh_path.name})"
 
 
-def _prescribed_motion(scene, parts, offsets, rest, initial, warnings) -> _Motion:
+def _prescribed_motion(scene, parts, offsets, placed, obstacles, warnings) -> _Motion:
     """NBCs of every shape; with script ``null`` the shapes' own velocities, mesh
-    sequences and DBCs; otherwise the legacy script's sets (§5.1 step 4)."""
+    sequences and DBCs; otherwise the legacy script's motion (§5.1 step 4). ``placed`` is
+    (rest, initial) of the scene's shapes; ``obstacles`` the placed meshCO parts."""
+    rest, initial = placed
     motion = _Motion(initial=initial, always=np.zeros(len(rest), dtype=bool))
     null_script = scene.script == "null"
     for p in parts:
@@ -319,9 +323,13 @@ def _prescribed_motion(scene, parts, offsets, rest, initial, warnings) -> _Motio
             _shape_dirichlet_sets(scene, p, offsets, motion, warnings)
     else:
         _warn_ignored_shape_motion(scene, parts, warnings)
-        sets, motion.initial = legacy_scripts.script_sets(scene, parts, offsets, rest,
-                                                          motion.initial, warnings)
-        motion.dbc_sets.extend(sets)
+        obstacle_points = np.concatenate([ob.points for ob in obstacles] or [np.zeros((0, 3))])
+        scripted = legacy_scripts.script_motion(legacy_scripts.ScriptScene(
+            scene, tuple(p.kind for p in parts), offsets, rest, motion.initial,
+            obstacle_points), warnings)
+        motion.dbc_sets.extend(scripted.dbc_sets)
+        motion.nbc_sets.extend(scripted.nbc_sets)
+        motion.initial, motion.velocities = scripted.initial, scripted.velocities
     return motion
 
 
@@ -368,7 +376,7 @@ def _warn_ignored_shape_motion(scene, parts, warnings) -> None:
     if ignored:
         warnings.append(f"script {scene.script}: per-shape {', '.join(ignored)} "
                         "not applied (as in the original)")
-    if scene.script != "DCOFix" and any(p.kind != "tet" for p in parts):
+    if scene.script not in legacy_scripts.FIXES_CODIM and any(p.kind != "tet" for p in parts):
         warnings.append(f"script {scene.script}: codim shapes are kept fixed "
                         "(ipcsim does not simulate codim shapes)")
 
@@ -489,6 +497,8 @@ def _initial_velocities(scene, parts, offsets, motion: _Motion, warnings) -> np.
     initVel)."""
     velocities = np.zeros((len(motion.always), 3))
     if scene.script != "null":
+        if motion.velocities is not None:  # a legacy script's (DCOBallHitWall)
+            velocities[:len(motion.velocities)] = motion.velocities
         return velocities
     scripted = motion.always.copy()
     for s in motion.dbc_sets:

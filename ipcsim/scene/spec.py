@@ -34,6 +34,15 @@ SUPPORTED_SCRIPTS = (
     "twist",
     "fixLowerHalf",
     "pushRightMost1",
+    "hangLeft",
+    "stretchAndPause",
+    "dragright",
+    "DCOVerschoorRoller",
+    "DCOBallHitWall",
+    "DCOSqueezeOut",
+    "DCOSegBedSquash",
+    "DCOSquash6",
+    "utopiaComparison",
 )
 
 # Mesh kind by file extension; "tet" shapes are simulated, the others kinematic.
