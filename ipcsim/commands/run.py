@@ -165,6 +165,8 @@ def main(args) -> int:
                 steps_done += 1
                 newton_total += row["newton_iterations"]
                 k = sim.state.step
+                for note in report.notes:  # the baselines' intersecting states
+                    print(f"warning: step {k}: {note}", file=sys.stderr)
                 if row["hit_iteration_cap"]:
                     print(f"warning: step {k} hit the Newton iteration cap "
                           f"({row['newton_iterations']}) without converging", file=sys.stderr)
@@ -206,7 +208,8 @@ def main(args) -> int:
     info.update(finished=now_iso(), wall_s=wall, steps_done=sim.state.step,
                 newton_iterations=int(np.sum(logged.get("newton_iterations", 0))),
                 steps_hitting_iteration_cap=int(np.sum(logged.get("hit_iteration_cap", 0))),
-                status="ok" if status == 0 else failure)
+                status="ok" if status == 0 else failure,
+                outcome=sim.outcome if status in (0, 3) else failure)
     write_run_info(out, info)
     if status == 0:
         say(f"done: {steps_done} steps, {newton_total} Newton iterations, {wall:.1f} s")

@@ -27,8 +27,8 @@ from ..scene.spec import SUPPORTED_SCRIPTS, SceneSpec, ShapeSpec
 from . import mesh_io
 from . import legacy_scripts
 from .kinematics import rotation_axis_angle, rotation_xyz
-from .model import (GRAVITY, DirichletSet, MeshSequence, Model, NeumannSet, SolverSettings,
-                    TimeSettings)
+from .model import (GRAVITY, ConstraintSolverSettings, DirichletSet, MeshSequence, Model,
+                    NeumannSet, SolverSettings, TimeSettings)
 from .surface import boundary_triangles, unique_edges
 
 SEQUENCE_EXT = {"tet": "msh", "surface": "obj", "segments": "seg", "points": "pt"}
@@ -244,7 +244,8 @@ def _build_model(scene: SceneSpec) -> Model:
         **_planes(scene), **_contact_parameters(scene, bbox_diagonal),
         dbc_sets=tuple(motion.dbc_sets), nbc_sets=tuple(motion.nbc_sets),
         mesh_sequences=tuple(motion.sequences), dbc_time_range=scene.dbc_time_range,
-        nbc_time_range=scene.nbc_time_range, terms=(), warnings=tuple(warnings),
+        nbc_time_range=scene.nbc_time_range, terms=(),
+        constraint_solver=_constraint_solver(scene, warnings), warnings=tuple(warnings),
     )
     return dataclasses.replace(model, terms=describe_terms(model, scene))
 
@@ -573,6 +574,26 @@ def _contact_parameters(scene, l: float) -> dict:
     )
 
 
+CONSTRAINT_KINDS = {"volume": "volume", "graphics": "gap", "gapFunction": "gap",
+                    "Verschoor": "Verschoor"}
+
+
+def _constraint_solver(scene, warnings) -> ConstraintSolverSettings | None:
+    """The SQP / QP baseline's settings (None for IPC's interior point method)."""
+    if scene.constraint_solver not in ("SQP", "QP"):
+        return None
+    kind = CONSTRAINT_KINDS.get(scene.constraint_type)
+    if kind is None:
+        raise _scene_error(scene, None, f"constraint type '{scene.constraint_type}' is not "
+                                        f"implemented by ipcsim ({', '.join(CONSTRAINT_KINDS)})")
+    if scene.self_friction > 0.0 or any(p.friction > 0.0 for p in scene.planes):
+        warnings.append(f"constraintSolver {scene.constraint_solver}: friction is ignored "
+                        "(the baselines are frictionless)")
+    return ConstraintSolverSettings(scene.constraint_solver, kind,
+                                    float(scene.constraint_offset),
+                                    bool(scene.active_set_convergence))
+
+
 def _solver_settings(scene, l: float) -> SolverSettings:
     """Newton tolerances tol·l·h per step (as given with useAbsParameters) and the rest
     of the solver's settings."""
@@ -620,6 +641,11 @@ def describe_terms(model: Model, scene: SceneSpec) -> tuple[str, ...]:
                      f"({k} shape{'s' if k != 1 else ''})")
     if model.needs_damping:
         terms.append(f"damping (stiffness {model.damping_stiffness:g})")
+    if model.constraint_solver is not None and (model.needs_mesh_contact or model.n_planes):
+        cs = model.constraint_solver
+        terms.append(f"contact as constraints ({cs.method}, {scene.constraint_type} "
+                     f"c(x) >= {cs.offset:g}, OSQP; no barrier)")
+        return tuple(terms) + _bc_terms(model)
     if model.n_planes:
         terms.append(f"plane contact ({model.n_planes} plane{'s' if model.n_planes != 1 else ''})")
     if model.needs_mesh_contact:
@@ -640,6 +666,11 @@ def describe_terms(model: Model, scene: SceneSpec) -> tuple[str, ...]:
             if mu > 0:
                 parts.append(f"{'ground' if pl.kind == 'ground' else 'half-space'} {mu:g}")
         terms.append(f"friction ({', '.join(parts)})")
+    return tuple(terms) + _bc_terms(model)
+
+
+def _bc_terms(model: Model) -> tuple[str, ...]:
+    terms = []
     if model.nbc_sets:
         k = len(model.nbc_sets)
         terms.append(f"Neumann BC ({k} set{'s' if k != 1 else ''})")

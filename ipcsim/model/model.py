@@ -171,6 +171,23 @@ class SolverSettings:
         return self.newton_tolerances[min(step, len(self.newton_tolerances) - 1)]
 
 
+@dataclass(frozen=True)
+class ConstraintSolverSettings:
+    """The SQP and QP baselines (``constraintSolver SQP|QP``): contact as constraints
+    c(x) ≥ offset linearised in a sequence of QPs (SQP) or in one per step (QP), instead of
+    IPC's barrier. ``constraint_type`` "volume", "gap" (the original's graphics /
+    gapFunction) or "Verschoor"."""
+
+    method: str  # "SQP" | "QP"
+    constraint_type: str
+    offset: float  # in the units of c (m for gap and Verschoor, m³ for volume)
+    active_set_convergence: bool = False  # iterate until the step adds no constraint
+    max_iterations: int = 100  # QPs per step (SQP iterations, QP active-set rounds)
+    qp_eps_rel: float = 1e-3  # OSQP's relative tolerance (the original's setting)
+    qp_max_iterations: int = 4000  # OSQP's ADMM iterations
+    blow_up_factor: float = 100.0  # a step longer than this × the scene's extent: blow-up
+
+
 _ARRAY_FIELDS = (
     "rest_positions", "initial_positions", "initial_velocities", "tets", "tet_shape",
     "rest_volumes", "Dm_inv", "lame", "mass", "vertex_shape", "shape_offsets",
@@ -247,6 +264,9 @@ class Model:
     terms: tuple[str, ...]
     warnings: tuple[str, ...] = ()
 
+    # contact as constraints of the SQP / QP baselines (None: IPC's barrier)
+    constraint_solver: ConstraintSolverSettings | None = None
+
     def __post_init__(self):
         _freeze(self, _ARRAY_FIELDS)
 
@@ -316,7 +336,10 @@ class Model:
     @property
     def needs_friction(self) -> bool:
         """Some contact with mu > 0: a plane with friction, or mesh contact (self contact
-        or meshCO obstacles) with selfFric, which every mesh contact uses."""
+        or meshCO obstacles) with selfFric, which every mesh contact uses. Never with the
+        SQP / QP baselines (frictionless)."""
+        if self.constraint_solver is not None:
+            return False
         planes = bool(np.any(self.plane_friction > 0.0))
         return planes or (self.self_friction > 0.0 and self.needs_mesh_contact)
 
