@@ -1,6 +1,6 @@
 """One QP of the baselines: min ½ Δxᵀ P Δx + qᵀ Δx subject to A Δx ≥ l, solved with OSQP
 (the solver the original program uses; its settings: relative tolerance 1e-3, no absolute
-one, scaled termination, here with solution polishing). Without constraints the QP is the
+one, scaled termination, no polishing). Without constraints the QP is the
 linear system P Δx = −q, solved by ipcsim's own factorisation.
 
 OSQP's own statuses are kept: a primal or dual infeasible QP is a failure (as in the
@@ -54,7 +54,7 @@ def solve_qp(P: sp.csc_matrix, q: np.ndarray, A: sp.csc_matrix, lower: np.ndarra
     solver.setup(sp.triu(P, format="csc"), np.ascontiguousarray(q, dtype=float),
                  sp.csc_matrix(A), np.ascontiguousarray(lower, dtype=float),
                  np.full(A.shape[0], np.inf), verbose=False, eps_abs=1e-20,
-                 eps_rel=settings.qp_eps_rel, scaled_termination=True, polishing=True,
+                 eps_rel=settings.qp_eps_rel, scaled_termination=True, polishing=False,
                  max_iter=settings.qp_max_iterations)
     res = solver.solve(raise_error=False)
     status = str(res.info.status).lower()

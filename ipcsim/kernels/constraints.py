@@ -33,7 +33,9 @@ from numba import njit, prange
 
 VOLUME, GAP, VERSCHOOR = 0, 1, 2
 INACTIVE = 1e28  # the value of a constraint that cannot be formed (as the original)
-_PARALLEL_TOL = 1e-20  # |n|² below this times |da|²|db|² (or |e1|²|e2|²): degenerate
+# sin² of the angle between the edges (or the triangle's sides) below this: degenerate;
+# the original skips edges with |cos| > 1 − 1e-12, i.e. sin² < 2e-12
+_PARALLEL_TOL = 2e-12
 
 
 @njit(cache=True)
@@ -82,7 +84,7 @@ def _pt_plane(q):
     r = r - c * n  # the projection, relative to t0
     d00, d01, d11 = np.dot(e1, e1), np.dot(e1, e2), np.dot(e2, e2)
     d20, d21 = np.dot(r, e1), np.dot(r, e2)
-    den = d00 * d11 - d01 * d01
+    den = nn  # = d00 d11 − d01², without its cancellation
     b1 = (d11 * d20 - d01 * d21) / den
     b2 = (d00 * d21 - d01 * d20) / den
     return c, n, 1.0 - b1 - b2, b1, b2, True
@@ -101,7 +103,7 @@ def _ee_line(q):
     n = n / np.sqrt(nn)
     r = q[0] - q[2]
     ab, d, e = np.dot(da, db), np.dot(da, r), np.dot(db, r)
-    den = aa * bb - ab * ab
+    den = nn  # = aa bb − ab², without its cancellation
     s = (ab * e - bb * d) / den
     t = (aa * e - ab * d) / den
     return np.dot(n, q[2] - q[0]), n, s, t, True

@@ -937,6 +937,15 @@ def _token_path(target: Path, folder: Path, what: str, out) -> str:
     return rel
 
 
+def _constraint_lines(s: SceneSpec) -> list[str]:
+    """The SQP / QP settings, where they differ from the defaults."""
+    if (s.constraint_type, s.constraint_offset, s.active_set_convergence) == ("volume", 0.0,
+                                                                              False):
+        return []
+    return [f"constraintType {s.constraint_type}", f"constraintOffset {_f(s.constraint_offset)}",
+            *(["useActiveSetConvergence"] if s.active_set_convergence else [])]
+
+
 def format_txt(spec: SceneSpec, path=None) -> str:
     """The scene as an IPC script. Paths are written relative to ``path``'s folder (the
     file being written; default: the current directory). Defaults are written out too, so
@@ -986,12 +995,7 @@ def format_txt(spec: SceneSpec, path=None) -> str:
     if s.use_abs_parameters:
         L.append("useAbsParameters")
     L.append(f"constraintSolver {s.constraint_solver}")
-    if (s.constraint_type, s.constraint_offset, s.active_set_convergence) != ("volume", 0.0,
-                                                                              False):
-        L.append(f"constraintType {s.constraint_type}")
-        L.append(f"constraintOffset {_f(s.constraint_offset)}")
-        if s.active_set_convergence:
-            L.append("useActiveSetConvergence")
+    L.extend(_constraint_lines(s))
     if s.linear_solver is not None:
         L.append(f"linearSolver {_SOLVER_SPELLING.get(s.linear_solver, s.linear_solver)}")
     for kw, rng in (("DBCTimeRange", s.dbc_time_range), ("NBCTimeRange", s.nbc_time_range)):
