@@ -1,9 +1,11 @@
 """The SQP and QP baselines (``constraintSolver SQP|QP``, ipcsim/baselines/) on the
 original program's tutorial scripts and its ``failures/`` scripts, each run labelled as
 the paper's supplement labels its SQP runs: Pass, Intersecting, Blow-up, Timeout (and
-"QP failure" where OSQP reports an infeasible QP twice in a row).
+"QP failure" where OSQP reports an infeasible QP twice in a row); the same scenes solved
+by IPC (ipcsim's barrier) for reference.
 
     python -m benchmarks.baselines [--steps N] [--budget S] [--only SUBSTRING] [--out DIR]
+                                   [--methods IPC,SQP,QP] [--merge]
 
 Scripts that name SQP or QP themselves (the ``failures/`` ones) run with their own
 settings. The others run with the settings of the original's SQP sections: ``warmStart 1``,
@@ -13,7 +15,8 @@ Every frame is checked afterwards (``ipcsim check --frames``); a run whose frame
 intersect is "Intersecting" even when no step noticed. ``--budget`` is wall seconds per
 run: a run still going then is "Timeout".
 
-The table goes to docs/benchmarks/baselines_table.md (not with ``--only``).
+The table goes to docs/benchmarks/baselines_table.md and the rows to baselines.json (not
+with ``--only``, unless ``--merge``: then only this run's rows replace the saved ones).
 """
 
 from __future__ import annotations
@@ -31,7 +34,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLES = REPO.parent / "shared" / "ipc-examples-full" / "input"
 DOCS = REPO / "docs" / "benchmarks"
-METHODS = ("SQP", "QP")
+METHODS = ("IPC", "SQP", "QP")  # IPC: the scene solved with ipcsim's barrier, for reference
 DEFAULT_STEPS = 40
 DEFAULT_BUDGET = 120.0
 
@@ -44,7 +47,9 @@ def baseline_scene(scene: Path, method: str, out: Path) -> Path:
     from ipcsim.scene import load_scene, save_scene
 
     spec = load_scene(scene)
-    if spec.constraint_solver in METHODS:
+    if method == "IPC":
+        spec = dataclasses.replace(spec, constraint_solver="interiorPoint")
+    elif spec.constraint_solver in METHODS:
         spec = dataclasses.replace(spec, constraint_solver=method)
     else:
         dhat = build_model(spec).dhat
@@ -106,10 +111,29 @@ def run_labelled(scene: Path, out: Path, steps: int | None, budget: float) -> di
         label = "Pass"
     else:
         label = f"failed: {error or info.get('status') or f'exit status {status}'}"
+    logged_steps, logged_qps = _logged(out)  # where the budget stopped it before run.json
     return {"label": label, "status": status, "wall_s": wall, "frames_clean": clean,
-            "steps_done": info.get("steps_done") or 0,
-            "steps_planned": info.get("steps_planned") or steps,
-            "reason": info.get("status", error), "qp_solves": info.get("newton_iterations") or 0}
+            "steps_done": info.get("steps_done") or logged_steps,
+            "steps_planned": info.get("steps_planned") or steps or _planned(scene),
+            "reason": info.get("status", error),
+            "qp_solves": info.get("newton_iterations") or logged_qps}
+
+
+def _logged(out: Path) -> tuple[int, int]:
+    """(steps, QPs) in steps.csv."""
+    from ipcsim.io.csv_log import read_csv
+
+    log = out / "steps.csv"
+    if not log.is_file() or not log.stat().st_size:
+        return 0, 0
+    qps = read_csv(log).get("newton_iterations", [])
+    return len(qps), int(sum(qps))
+
+
+def _planned(scene: Path) -> int:
+    from ipcsim.scene import load_scene
+
+    return load_scene(scene).n_steps
 
 
 def scripts(only: str | None = None) -> list[Path]:
@@ -122,12 +146,12 @@ def scripts(only: str | None = None) -> list[Path]:
 
 
 def run_all(steps=DEFAULT_STEPS, budget=DEFAULT_BUDGET, only=None, root=None,
-            say=print) -> list[dict]:
+            say=print, methods=METHODS[1:]) -> list[dict]:
     root = Path(root or REPO / "output" / "baselines")
     rows = []
     for path in scripts(only):
         name = str(path.relative_to(EXAMPLES).with_suffix(""))
-        for method in METHODS:
+        for method in methods:
             folder = root / name.replace("/", "_") / method
             scene = baseline_scene(path, method, folder / "scene")
             row = {"script": name, "method": method,
@@ -140,7 +164,8 @@ def run_all(steps=DEFAULT_STEPS, budget=DEFAULT_BUDGET, only=None, root=None,
 
 
 def markdown(rows) -> str:
-    lines = ["| script | method | steps done / planned | QPs | outcome | wall (s) |",
+    lines = ["| script | method | steps done / planned | QPs (IPC: Newton iterations) "
+             "| outcome | wall (s) |",
              "|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['script']} | {r['method']} | {r['steps_done']} / "
@@ -157,14 +182,32 @@ def main(argv=None) -> int:
                     help="wall seconds per run before it is a Timeout")
     ap.add_argument("--only", help="run only scripts whose path contains this")
     ap.add_argument("--out", type=Path, help="folder for the runs (default output/baselines)")
+    ap.add_argument("--methods", default=",".join(METHODS),
+                    help="comma-separated, of IPC, SQP, QP (default all three)")
+    ap.add_argument("--merge", action="store_true",
+                    help="replace only this run's (script, method) rows of the saved results")
     args = ap.parse_args(argv)
-    rows = run_all(args.steps, args.budget, args.only, args.out)
+    methods = tuple(m for m in args.methods.split(",") if m)
+    rows = run_all(args.steps, args.budget, args.only, args.out, methods=methods)
+    saved = DOCS / "baselines.json"
+    if args.merge and saved.is_file():
+        new = {(r["script"], r["method"]): r for r in rows}
+        old = json.loads(saved.read_text())
+        rows = [new.pop((r["script"], r["method"]), r) for r in old] + list(new.values())
+    order = {m: i for i, m in enumerate(METHODS)}
+    rows.sort(key=lambda r: (_script_order(r["script"]), order[r["method"]]))
     table = markdown(rows)
-    if not args.only:
+    if not args.only or args.merge:
         DOCS.mkdir(parents=True, exist_ok=True)
+        saved.write_text(json.dumps(rows, indent=1) + "\n")
         (DOCS / "baselines_table.md").write_text(table + "\n")
     print(table)
     return 0
+
+
+def _script_order(name: str) -> tuple[int, str]:
+    """Tutorial scripts first, then failures/, each alphabetically."""
+    return (0 if name.startswith("tutorial") else 1, name)
 
 
 if __name__ == "__main__":

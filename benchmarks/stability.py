@@ -417,8 +417,18 @@ def read_results(path: Path) -> list[dict]:
                 r[k] = int(r[k])
             for k in ("escaped", "exploded", "checker_clean"):
                 r[k] = r[k] == "True"
+            if not r.get("label"):  # rows saved before the label existed
+                r["label"] = _saved_label(r)
             rows.append(r)
     return rows
+
+
+def _saved_label(r: dict) -> str:
+    """``label`` of a saved row, from its verdict and reason."""
+    if "wall budget" in (r.get("reason") or ""):
+        return "Timeout"
+    return {"ok": "Pass", "penetrated": "Intersecting", "tunnelled": "Intersecting",
+            "exploded": "Blow-up"}.get(r["verdict"], "failed")
 
 
 def _g(v, fmt=".3g"):
@@ -528,8 +538,8 @@ def main(argv=None) -> int:
                     default="all", help="both: barrier and penalty; sqp: the SQP and QP "
                                         "baselines; all: every model")
     ap.add_argument("--merge", action="store_true",
-                    help="replace only this run's contact models in docs/benchmarks/"
-                         "stability.csv and redraw the table and charts")
+                    help="replace only this run's (case, contact model) rows in "
+                         "docs/benchmarks/stability.csv and redraw the table and charts")
     ap.add_argument("--only", help="run only cases whose name contains this")
     ap.add_argument("--budget", type=float, default=DEFAULT_BUDGET,
                     help="wall seconds per run before it is stopped")
@@ -541,10 +551,12 @@ def main(argv=None) -> int:
         rows = read_results(DOCS / "stability.csv")
     else:
         rows = run_suite(args.smoke, args.contact, args.only, args.budget, args.out)
-        if args.merge and not (args.smoke or args.only):
-            names = {r["contact"] for r in rows}
-            rows = [r for r in read_results(DOCS / "stability.csv")
-                    if r["contact"] not in names] + rows
+        if args.merge and not args.smoke:
+            new = {(r["case"], r["contact"]): r for r in rows}
+            saved = read_results(DOCS / "stability.csv")
+            known = {(r["case"], r["contact"]) for r in saved}
+            rows = [new.get((r["case"], r["contact"]), r) for r in saved]
+            rows += [r for key, r in new.items() if key not in known]
         elif args.smoke or args.only or args.contact != "all":
             print(markdown(rows))
             return 0

@@ -185,7 +185,7 @@ class ConstraintSolverSettings:
     max_iterations: int = 100  # QPs per step (SQP iterations, QP active-set rounds)
     qp_eps_rel: float = 1e-3  # OSQP's relative tolerance (the original's setting)
     qp_max_iterations: int = 4000  # OSQP's ADMM iterations
-    blow_up_factor: float = 100.0  # a step longer than this × the scene's extent: blow-up
+    blow_up_factor: float = 100.0  # a vertex moving more than this × the scene's extent
 
 
 _ARRAY_FIELDS = (
