@@ -222,6 +222,8 @@ def _step_loop(run: _Run, step_log, newton_log, progress, stop) -> None:
         k = sim.state.step
         run.newton_total += row["newton_iterations"]
         _warn_about(run, row, k)
+        for note in report.notes:  # the baselines' intersecting states
+            print(f"warning: step {k}: {note}", file=sys.stderr)
         stopping = stop.requested and k < n_steps  # read once: Ctrl-C may come now
         framed = k % run.every == 0 or k == n_steps
         if framed:
@@ -300,7 +302,8 @@ def _run_info(run: _Run, status: int, failure, wall0: float, started: str) -> No
                 newton_iterations=int(np.sum(logged.get("newton_iterations", 0))),
                 steps_hitting_iteration_cap=int(np.sum(logged.get("hit_iteration_cap", 0))),
                 steps_not_converged=int(np.sum(converged == 0)),
-                status="ok" if status == 0 else failure)
+                status="ok" if status == 0 else failure,
+                outcome=run.sim.outcome if status in (0, 3) else failure)
     write_run_info(out, info)
 
 
