@@ -47,6 +47,7 @@ import argparse
 import csv
 import dataclasses
 import datetime
+import json
 import math
 import os
 import platform
@@ -738,6 +739,9 @@ def parse_args(argv):
                     "made the same way, so that the program alone is timed)")
     ap.add_argument("--no-warmup", action="store_true",
                     help="no untimed ipcsim runs first (measures numba compiling too)")
+    ap.add_argument("--keep-rows", action="store_true",
+                    help="reuse the rows a former run saved in WORK/rows instead of "
+                    "measuring those scenes again (to finish an interrupted benchmark)")
     ap.add_argument("--smoke", action="store_true",
                     help="one tiny scene, once, into a temporary folder")
     args = ap.parse_args(argv)
@@ -768,9 +772,17 @@ def run_benchmark(args, work: Path) -> tuple[list[dict], dict, Settings] | None:
     info["load_before"] = _load()
     rows = []
     for k, st in enumerate(staged, start=1):
+        saved = s.work / "rows" / f"{st.script.stem}.json"
+        if args.keep_rows and saved.is_file():
+            s.say(f"[{k}/{len(staged)}] {st.name}: measured before, row kept")
+            rows.append(json.loads(saved.read_text(encoding="utf-8")))
+            continue
         s.say(f"[{k}/{len(staged)}] {st.name}")
         rows.append(measure(st, stage, s, args.repeats or (1 if args.smoke else
                                                            st.scene.repeats)))
+        # each row as soon as it is measured: an interrupted benchmark keeps its hours
+        saved.parent.mkdir(parents=True, exist_ok=True)
+        saved.write_text(json.dumps(rows[-1], indent=1), encoding="utf-8")
     info["load_after"] = _load()
     return rows, info, s
 
