@@ -27,6 +27,7 @@ import numpy as np
 from ipcsim.contact.candidates import find_candidates
 from ipcsim.contact.ccd import collision_free_step
 from ipcsim.contact.collision_mesh import CollisionMesh
+from ipcsim.model.surface import unique_edges
 
 
 def cube_surface(n):
@@ -54,11 +55,6 @@ def cube_surface(n):
     inward = np.einsum("ij,ij->i", normal, verts[tris].mean(axis=1) - 0.5) < 0
     tris[inward] = tris[inward][:, ::-1]
     return verts, tris
-
-
-def unique_edges(tris):
-    e = np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1)
-    return np.unique(e, axis=0)
 
 
 def two_cube_scene(n, angle_deg=10.0):

@@ -1,8 +1,10 @@
-"""The stability suite: scenes where contact methods break, run with ipcsim's barrier and
-with a quadratic penalty baseline (benchmarks/penalty.py) at three stiffnesses.
+"""The stability suite: scenes where contact methods break, run with ipcsim's barrier,
+with a quadratic penalty baseline (benchmarks/penalty.py) at three stiffnesses, and with
+the SQP and QP baselines of the IPC paper (``constraintSolver SQP|QP``, benchmarks/
+baselines.py: gap-function constraints with offset d̂).
 
-    python -m benchmarks.stability [--smoke] [--contact barrier|penalty|both]
-                                   [--only SUBSTRING] [--budget S] [--out DIR]
+    python -m benchmarks.stability [--smoke] [--contact barrier|penalty|both|sqp|all]
+                                   [--only SUBSTRING] [--budget S] [--out DIR] [--merge]
     python -m benchmarks.stability --charts-only    # redraw from stability.csv
 
 Families: impact speed (a cube hitting the ground or a thin fixed plate at 10, 100 and
@@ -46,6 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.baselines import baseline_scene
 from benchmarks.penalty import STIFFNESS_FACTORS, penalty_scene
 from benchmarks.stability_meshes import chain_placements, link_mesh, slot_mesh
 from ipcsim.model.generate import box_tet_mesh, write_msh
@@ -215,7 +218,8 @@ def run_barrier(scene: Path, out: Path, steps: int | None, budget: float) -> dic
         info = json.loads((out / "run.json").read_text())
     reason = error or {0: "", 130: f"wall budget ({budget:g} s)"}.get(
         status, info.get("status", "") or f"exit status {status}")
-    return {"status": status, "reason": reason, "wall_s": wall}
+    return {"status": status, "reason": reason, "wall_s": wall,
+            "outcome": info.get("outcome")}
 
 
 def run_penalty(scene: Path, out: Path, factor: float, steps: int | None,
@@ -318,15 +322,33 @@ def verdict(r: dict) -> str:
     return "ok"
 
 
-def run_case(case: Case, model_name: str, factor: float | None, root: Path,
+def label(r: dict) -> str:
+    """The run as the paper's supplement labels its SQP runs: Pass, Intersecting (frames
+    that intersect or went through something), Blow-up (energy from nowhere, or the
+    baselines' blow-up), Timeout (the wall budget), or "QP failure"."""
+    if r["status"] == 130:
+        return "Timeout"
+    if r.get("outcome") in ("Blow-up", "QP failure"):
+        return r["outcome"]
+    if r["verdict"] in ("penetrated", "tunnelled") or r.get("outcome") == "Intersecting":
+        return "Intersecting"
+    if r["verdict"] == "exploded":
+        return "Blow-up"
+    return "Pass" if r["verdict"] == "ok" else "failed"
+
+
+def run_case(case: Case, model_name: str, variant, root: Path,
              steps: int | None, budget: float) -> dict:
+    """``variant``: None (IPC's barrier), a penalty stiffness factor, or "SQP" / "QP"."""
     folder = root / case.name.replace(" ", "_").replace(",", "").replace("=", "")
     scene = case.write(folder / "scene")
     out = folder / model_name.replace(" ", "_")
-    if factor is None:
+    if variant is None:
         run = run_barrier(scene, out, steps, budget)
+    elif isinstance(variant, str):
+        run = run_barrier(baseline_scene(scene, variant, scene.parent), out, steps, budget)
     else:
-        run = run_penalty(scene, out, factor, steps, budget)
+        run = run_penalty(scene, out, variant, steps, budget)
     from ipcsim.scene import load_scene
 
     planned = load_scene(scene).n_steps if steps is None else steps
@@ -335,20 +357,25 @@ def run_case(case: Case, model_name: str, factor: float | None, root: Path,
     if not res["reason"] and res["steps_done"] < planned:
         res["reason"] = "stopped early"
     res["verdict"] = verdict(res)
+    res["label"] = label(res)
     return res
 
 
 def contact_models(which: str, smoke: bool):
+    """(name, variant) of the contact models: "barrier", "penalty", "both" (the two),
+    "sqp" (the SQP and QP baselines) or "all"."""
     models = []
-    if which in ("barrier", "both"):
+    if which in ("barrier", "both", "all"):
         models.append(("ipcsim", None))
-    if which in ("penalty", "both"):
+    if which in ("penalty", "both", "all"):
         for c in (STIFFNESS_FACTORS[1:2] if smoke else STIFFNESS_FACTORS):
             models.append((f"penalty {c:.0e}", c))
+    if which in ("sqp", "all"):
+        models += [("SQP", "SQP"), ("QP", "QP")]
     return models
 
 
-def run_suite(smoke=False, contact="both", only=None, budget=DEFAULT_BUDGET, root=None,
+def run_suite(smoke=False, contact="all", only=None, budget=DEFAULT_BUDGET, root=None,
               steps=None, say=print) -> list[dict]:
     root = Path(root or REPO / "output" / ("stability_smoke" if smoke else "stability"))
     steps = steps or (3 if smoke else None)
@@ -369,7 +396,7 @@ def run_suite(smoke=False, contact="both", only=None, budget=DEFAULT_BUDGET, roo
 
 # -- reporting ---------------------------------------------------------------------------------
 
-CSV_COLUMNS = ("family", "case", "x", "contact", "verdict", "reason", "steps_done",
+CSV_COLUMNS = ("family", "case", "x", "contact", "verdict", "label", "reason", "steps_done",
                "planned", "newton_mean", "newton_max", "min_distance", "penetration",
                "dhat", "intersections", "inverted", "below_plane", "bad_frames", "escaped",
                "exploded", "checker_clean", "wall_s")
@@ -396,8 +423,18 @@ def read_results(path: Path) -> list[dict]:
                 r[k] = int(r[k])
             for k in ("escaped", "exploded", "checker_clean"):
                 r[k] = r[k] == "True"
+            if not r.get("label"):  # rows saved before the label existed
+                r["label"] = _saved_label(r)
             rows.append(r)
     return rows
+
+
+def _saved_label(r: dict) -> str:
+    """``label`` of a saved row, from its verdict and reason."""
+    if "wall budget" in (r.get("reason") or ""):
+        return "Timeout"
+    return {"ok": "Pass", "penetrated": "Intersecting", "tunnelled": "Intersecting",
+            "exploded": "Blow-up"}.get(r["verdict"], "failed")
 
 
 def _g(v, fmt=".3g"):
@@ -405,13 +442,15 @@ def _g(v, fmt=".3g"):
 
 
 def markdown(rows) -> str:
-    lines = ["| case | contact | result | steps | Newton it. mean (max) | min distance (m) "
-             "| max penetration (m) | intersecting pairs | inverted tets | wall (s) |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| case | contact | result | label | steps | Newton it. mean (max) "
+             "| min distance (m) | max penetration (m) | intersecting pairs | inverted tets "
+             "| wall (s) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         result = r["verdict"] + (f": {r['reason']}" if r["reason"] else "")
         lines.append(
-            f"| {r['case']} | {r['contact']} | {result} | {r['steps_done']}/{r['planned']} "
+            f"| {r['case']} | {r['contact']} | {result} | {r.get('label') or '–'} "
+            f"| {r['steps_done']}/{r['planned']} "
             f"| {_g(r['newton_mean'], '.1f')} ({_g(r['newton_max'], '.0f')}) "
             f"| {_g(r['min_distance'])} | {_g(r['penetration'])} | {r['intersections']} "
             f"| {r['inverted']} | {r['wall_s']:.1f} |")
@@ -501,7 +540,12 @@ def charts(rows, folder: Path = DOCS):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--smoke", action="store_true", help="one case per family, 3 steps")
-    ap.add_argument("--contact", choices=("barrier", "penalty", "both"), default="both")
+    ap.add_argument("--contact", choices=("barrier", "penalty", "both", "sqp", "all"),
+                    default="all", help="both: barrier and penalty; sqp: the SQP and QP "
+                                        "baselines; all: every model")
+    ap.add_argument("--merge", action="store_true",
+                    help="replace only this run's (case, contact model) rows in "
+                         "docs/benchmarks/stability.csv and redraw the table and charts")
     ap.add_argument("--only", help="run only cases whose name contains this")
     ap.add_argument("--budget", type=float, default=DEFAULT_BUDGET,
                     help="wall seconds per run before it is stopped")
@@ -513,7 +557,13 @@ def main(argv=None) -> int:
         rows = read_results(DOCS / "stability.csv")
     else:
         rows = run_suite(args.smoke, args.contact, args.only, args.budget, args.out)
-        if args.smoke or args.only or args.contact != "both":
+        if args.merge and not args.smoke:
+            new = {(r["case"], r["contact"]): r for r in rows}
+            saved = read_results(DOCS / "stability.csv")
+            known = {(r["case"], r["contact"]) for r in saved}
+            rows = [new.get((r["case"], r["contact"]), r) for r in saved]
+            rows += [r for key, r in new.items() if key not in known]
+        elif args.smoke or args.only or args.contact != "all":
             print(markdown(rows))
             return 0
         write_csv(rows, DOCS / "stability.csv")

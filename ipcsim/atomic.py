@@ -17,6 +17,7 @@ from typing import IO
 
 __all__ = [
     "TEMP_MARKER",
+    "sync_to_disk",
     "atomic_open",
     "atomic_path",
     "atomic_write_bytes",
@@ -61,6 +62,18 @@ def _fsync_folder(folder: Path) -> None:
         pass  # some file systems refuse fsync on a folder; the data itself is synced
     finally:
         os.close(fd)
+
+
+def sync_to_disk(paths) -> None:
+    """Force files written without ``fsync`` (and their folders' renames) to disk."""
+    folders = set()
+    for path in paths:
+        path = Path(path)
+        if path.is_file():
+            _fsync_file(path)
+            folders.add(path.parent)
+    for folder in folders:
+        _fsync_folder(folder)
 
 
 def _discard(tmp: Path) -> None:

@@ -144,7 +144,8 @@ def _add_run(sub) -> None:
                             "once the new one has been built and checked)")
     again.add_argument("--resume", action="store_true",
                        help="continue the run in the output folder from its last checkpoint "
-                            "(written with every frame and on Ctrl-C), e.g. after a crash")
+                            "(written with a frame at most every 2 s, at the end and on Ctrl-C), "
+                            "e.g. after a crash")
     p.add_argument("--steps", type=_positive_int, metavar="N",
                    help="stop after step N (default: ceil(duration/dt))")
     p.add_argument("--render", action="store_true",

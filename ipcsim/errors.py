@@ -65,9 +65,17 @@ class MeshError(SceneError):
 
 
 class SolverError(IpcsimError):
-    """The simulation itself failed (NaN, infinite energy, no feasible step)."""
+    """The simulation itself failed (NaN, infinite energy, no feasible step). ``label``
+    names the kind of failure where a benchmark tells them apart (the SQP / QP baselines:
+    "Blow-up", "QP failure"); None otherwise."""
 
     exit_status = 3
+    label: str | None = None
+
+    def __init__(self, message: str = "", label: str | None = None):
+        super().__init__(message)
+        if label is not None:
+            self.label = label
 
 
 class NonFiniteError(SolverError):

@@ -7,8 +7,9 @@ the checkpoint against the folder; so a bad input leaves every folder as it was,
 ``mode="overwrite"`` removes the old run only once the new one can start.
 
 Nothing is lost on a crash: each step's CSV rows are flushed before the next step starts,
-frames and the checkpoint are replaced atomically, and the checkpoint is written after
-its frame. ``mode="resume"`` continues from the checkpoint (after a kill, even SIGKILL, or
+frames and the checkpoint are replaced atomically, and a checkpoint (with a frame, at most
+every ``CHECKPOINT_SECONDS``, and at the end) first forces everything before it to disk.
+``mode="resume"`` continues from the checkpoint (after a kill, even SIGKILL, or
 a full disk); Ctrl-C stops after the current step with a fresh checkpoint
 (:class:`~ipcsim.errors.RunInterrupted`).
 """
@@ -33,6 +34,11 @@ __all__ = ["run", "RunResult", "Reporter", "build", "frame_interval_for"]
 
 MODES = ("new", "overwrite", "resume")
 MAX_STEP_WARNINGS = 10  # non-converged steps named by warn(); run.json counts all
+# A checkpoint, which forces everything written before it to disk, at most this often
+# (wall seconds; and always at the last step and on Ctrl-C). Between checkpoints frames
+# and rows are replaced atomically but not forced to disk: a killed run resumes from the
+# last checkpoint and computes at most this much again.
+CHECKPOINT_SECONDS = 2.0
 
 
 def _nothing(*_) -> None:
@@ -155,6 +161,7 @@ class _Run:
     renderer: object = None
     warned: int = 0  # steps that did not converge, in this call
     newton_total: int = 0  # Newton iterations, in this call
+    checkpointed: float = 0.0  # wall clock of the last checkpoint
 
     @property
     def resume(self) -> bool:
@@ -226,7 +233,6 @@ def _open_output(run: _Run):
     """Start writing: a new run clears (overwrite) and creates the folder and writes the
     scene, frame 0 and a checkpoint; a resumed one drops what followed its checkpoint.
     Returns the open step and Newton logs."""
-    from .io.checkpoint import write_checkpoint
     from .io.csv_log import NewtonLog, StepLog
     from .io.output_folder import prepare_output_folder
     from .io.resume import remove_temporaries
@@ -251,7 +257,7 @@ def _open_output(run: _Run):
         keep = (lambda row: int(row["step"]) <= run.first_step)
     else:
         _write_frame(run, 0)
-        write_checkpoint(out, run.sim.state, run.digest)
+        _checkpoint(run)
     return (StepLog(out / StepLog.FILE_NAME, keep_rows=keep),
             NewtonLog(out / NewtonLog.FILE_NAME, keep_rows=keep))
 
@@ -273,10 +279,20 @@ def _warn_about(run: _Run, row: dict, k: int) -> None:
     run.reporter.warn(f"warning: step {k} did not converge ({why}){more}")
 
 
-def _step_loop(run: _Run, step_log, newton_log, progress, stop) -> None:
-    """Steps until the last one; KeyboardInterrupt once a Ctrl-C'd step is saved."""
+def _checkpoint(run: _Run, logs=()) -> None:
+    """Force the frames and rows written so far to disk, then write the checkpoint: the
+    state a resumed run starts from, never ahead of the output it comes after."""
     from .io.checkpoint import write_checkpoint
 
+    run.frames.sync()
+    for log in logs:
+        log.sync()
+    write_checkpoint(run.out, run.sim.state, run.digest)
+    run.checkpointed = time.perf_counter()
+
+
+def _step_loop(run: _Run, step_log, newton_log, progress, stop) -> None:
+    """Steps until the last one; KeyboardInterrupt once a Ctrl-C'd step is saved."""
     sim, n_steps = run.sim, run.n_steps
     while sim.state.step < n_steps:
         report = sim.step()
@@ -287,12 +303,15 @@ def _step_loop(run: _Run, step_log, newton_log, progress, stop) -> None:
         k = sim.state.step
         run.newton_total += row["newton_iterations"]
         _warn_about(run, row, k)
+        for note in report.notes:  # the baselines' intersecting states
+            run.reporter.warn(f"warning: step {k}: {note}")
         stopping = stop.requested and k < n_steps  # read once: Ctrl-C may come now
-        if k % run.every == 0 or k == n_steps:
+        framed = k % run.every == 0 or k == n_steps
+        if framed:
             _write_frame(run, k)
-            write_checkpoint(run.out, sim.state, run.digest)
-        elif stopping:
-            write_checkpoint(run.out, sim.state, run.digest)  # resume here, not the frame
+        due = framed and time.perf_counter() - run.checkpointed >= CHECKPOINT_SECONDS
+        if due or k == n_steps or stopping:  # stopping: resume here, not at the frame
+            _checkpoint(run, (step_log, newton_log))
         progress.update(k, k * run.scene.dt, row["newton_iterations"], row["contacts_total"])
         if stopping:
             raise KeyboardInterrupt
@@ -301,6 +320,7 @@ def _step_loop(run: _Run, step_log, newton_log, progress, stop) -> None:
 def _simulate(run: _Run) -> tuple[int, str | None, str | None]:
     """Open the output, run the steps; (exit status, failure for run.json, message)."""
     from .commands.progress import RunProgress
+    from .kernels.compiling import compile_seconds
 
     say = run.reporter.say
     step_log, newton_log = _open_output(run)
@@ -309,7 +329,8 @@ def _simulate(run: _Run) -> tuple[int, str | None, str | None]:
     say("modelled terms: " + "; ".join(run.model.terms))
     say(f"linear solver: {run.sim.linear_solver.name}; threads: {run.sim.threads}")
     run.sim.on_iteration = run.reporter.on_iteration
-    progress = RunProgress(run.first_step, run.n_steps, run.reporter.progress)
+    progress = RunProgress(run.first_step, run.n_steps, run.reporter.progress,
+                           compiled=compile_seconds)
     with step_log, newton_log, StopRequest() as stop:
         try:
             _step_loop(run, step_log, newton_log, progress, stop)
@@ -372,7 +393,8 @@ def _run_info(run: _Run, status: int, failure, wall0: float, started: str) -> No
                 newton_iterations=int(np.sum(logged.get("newton_iterations", 0))),
                 steps_hitting_iteration_cap=int(np.sum(logged.get("hit_iteration_cap", 0))),
                 steps_not_converged=int(np.sum(converged == 0)),
-                status="ok" if status == 0 else failure)
+                status="ok" if status == 0 else failure,
+                outcome=run.sim.outcome if status in (0, 3) else failure)
     write_run_info(out, info)
 
 

@@ -81,6 +81,7 @@ class StepReport:
     row: dict  # the steps.csv row of the step
     newton: tuple[dict, ...]  # its newton.csv rows
     result: NewtonResult
+    notes: tuple[str, ...] = ()  # what went wrong without stopping the run (baselines)
 
 
 class Simulation:
@@ -102,6 +103,15 @@ class Simulation:
         self.on_iteration = None  # called with each newton.csv row as it completes (-v)
         self.stiffness = _initial_stiffness(model, self.contact)
         self.state = _initial_state(model, self.stiffness.kappa)
+        # the SQP / QP baselines minimise the step with contact as constraints
+        self.constrained = None
+        if model.constraint_solver is not None:
+            from .baselines.sqp import ConstrainedSolver
+
+            self.constrained = ConstrainedSolver(model.constraint_solver, self.contact,
+                                                 self.linear_solver, self.timer, model.energy)
+        # "Pass" until a step ends intersecting ("Intersecting") or fails with a label
+        self.outcome = "Pass"
         check_initial_state(self)
 
     @property
@@ -131,9 +141,11 @@ class Simulation:
             return self._step()
         except NonFiniteError as exc:
             exc.step = number
+            self.outcome = "Blow-up" if self.constrained is not None else "failed"
             raise
         except SolverError as exc:
-            raise SolverError(f"step {number}: {exc}") from None
+            self.outcome = exc.label or "failed"
+            raise SolverError(f"step {number}: {exc}", label=exc.label) from None
 
     def _step(self) -> StepReport:
         wall0 = time.perf_counter()
@@ -146,7 +158,15 @@ class Simulation:
             raise SolverError("positions became non-finite")
         self.state = self.advance(before, result.x, objective)
         rows = tuple({**r, "step": self.state.step} for r in result.rows)
-        return StepReport(self._step_row(result, objective, lag_updates, wall0), rows, result)
+        notes = ()
+        if self.constrained is not None:
+            crossing = self.constrained.intersections(result.x)
+            if crossing is not None:
+                notes = (f"the state intersects ({crossing})",)
+                if self.outcome == "Pass":
+                    self.outcome = "Intersecting"
+        return StepReport(self._step_row(result, objective, lag_updates, wall0), rows, result,
+                          notes)
 
     def objective(self, state: State) -> StepObjective:
         """The step's incremental potential: kinematic targets and body forces at
@@ -155,7 +175,7 @@ class Simulation:
         kinematic, target = kinematic_targets(model, x, state.step * h, h)
         accel = np.zeros_like(x)
         accel += model.gravity
-        accel += nbc_accelerations(model, state.step * h)
+        accel += nbc_accelerations(model, state.step * h, x)
         accel[kinematic] = 0.0
         x_tilde = self.integrator.predict(x, state.v, state.a)
         x_tilde[kinematic] = target[kinematic]
@@ -178,7 +198,10 @@ class Simulation:
     def minimise(self, objective: StepObjective, x0, tol) -> tuple[NewtonResult, int]:
         """Newton from x0; with friction, normal forces and tangents are re-lagged at the
         solution fricIterAmt − 1 more times (≤ 0: until the solution stops moving, at most
-        the cap). Returns the result and the number of friction lags."""
+        the cap). Returns the result and the number of friction lags. The SQP / QP
+        baselines minimise with their own solver (x0 then only seeds their constraints)."""
+        if self.constrained is not None:
+            return self.constrained.minimise(objective, x0, tol), 0
         result = self.newton.solve(objective, x0, tol)
         if self.potential.term("friction") is None:
             return result, 0

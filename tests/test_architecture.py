@@ -135,7 +135,9 @@ def _functions():
 
 
 def _is_kernel(node) -> bool:
-    return any("jit" in ast.unparse(d) for d in node.decorator_list)
+    """A numba kernel: ``@njit(...)`` or ``@kernel(...)`` (kernels/twin.py)."""
+    return any("jit" in ast.unparse(d) or ast.unparse(d).startswith("kernel(")
+               for d in node.decorator_list)
 
 
 def _parameters(node) -> int:

@@ -56,3 +56,36 @@ def test_bar_on_a_terminal_shows_step_time_iterations_contacts_and_eta():
     text = term.getvalue()
     assert "step 5/10" in text and "t=0.05s" in text
     assert "newton=7" in text and "contacts=42" in text and "ETA" in text
+
+
+def test_the_time_left_leaves_out_compiling(monkeypatch):
+    """A first run compiles kernels during its first steps: the estimate of the time left
+    counts only the time spent stepping."""
+    import io
+
+    from ipcsim.commands import progress as pr
+
+    clock = [100.0]
+    monkeypatch.setattr(pr.time, "perf_counter", lambda: clock[0])
+    compiled = [0.0]
+    p = pr.RunProgress(0, 100, "lines", stream=io.StringIO(), compiled=lambda: compiled[0])
+    clock[0] += 40.0  # 10 steps in 40 s, 38 of them compiling
+    compiled[0] = 38.0
+    assert p.eta(10) == pytest.approx(2.0 / 10 * 90)
+    compiled[0] = 0.0
+    assert p.eta(10) == pytest.approx(40.0 / 10 * 90)
+
+
+def test_a_compiling_run_says_so_once(capsys):
+    from ipcsim.kernels import compiling
+
+    said = []
+    compiling.when_compiling_starts(lambda: said.append(1))
+    from numba import njit
+
+    @njit  # not cached: always compiles
+    def twice(x):
+        return 2 * x
+
+    assert twice(3) == 6 and twice(2.5) == 5.0
+    assert said == [1] and compiling.compile_seconds() > 0.0

@@ -24,27 +24,30 @@ def _clock(seconds: float) -> str:
 
 
 class RunProgress:
-    """``update(step, time, newton, contacts)`` after every completed step."""
+    """``update(step, time, newton, contacts)`` after every completed step. The time left
+    leaves out the time spent compiling kernels (``compiled()``: seconds so far), which a
+    first run after installing pays once."""
 
-    def __init__(self, first_step: int, total_steps: int, mode: str, stream=None):
+    def __init__(self, first_step: int, total_steps: int, mode: str, stream=None,
+                 compiled=lambda: 0.0):
         self.first, self.total, self.mode = first_step, total_steps, mode
         self.stream = stream or sys.stdout
+        self.compiled = compiled
         self.started = self.last_line = time.perf_counter()
         self.next_line_step = first_step
         self._bar = None
         if mode == "bar":
             from rich.console import Console
-            from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+            from rich.progress import BarColumn, Progress, TextColumn
 
             self._bar = Progress(
                 TextColumn("step {task.completed}/{task.total}"),
                 BarColumn(),
                 TextColumn("t={task.fields[t]}  newton={task.fields[newton]}  "
-                           "contacts={task.fields[contacts]}  ETA"),
-                TimeRemainingColumn(),
+                           "contacts={task.fields[contacts]}  ETA {task.fields[eta]}"),
                 console=Console(file=self.stream), transient=False)
             self._task = self._bar.add_task("run", total=total_steps, completed=first_step,
-                                            t="-", newton="-", contacts="-")
+                                            t="-", newton="-", contacts="-", eta="-")
             self._bar.start()
 
     @staticmethod
@@ -55,15 +58,18 @@ class RunProgress:
         return "bar" if getattr(stream, "isatty", lambda: False)() else "lines"
 
     def eta(self, step: int) -> float:
+        """Seconds left at the pace of the steps so far, compiling left out."""
         done = step - self.first
         if done <= 0:
             return float("nan")
-        return (time.perf_counter() - self.started) / done * (self.total - step)
+        stepping = max(0.0, time.perf_counter() - self.started - self.compiled())
+        return stepping / done * (self.total - step)
 
     def update(self, step: int, t: float, newton: int, contacts: int) -> None:
         if self.mode == "bar":
+            left = self.eta(step)
             self._bar.update(self._task, completed=step, t=f"{t:.4g}s", newton=newton,
-                             contacts=contacts)
+                             contacts=contacts, eta=_clock(left) if left == left else "-")
         elif self.mode == "lines":
             now = time.perf_counter()
             if step < self.total and step < self.next_line_step and now - self.last_line < LINE_SECONDS:

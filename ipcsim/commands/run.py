@@ -53,8 +53,19 @@ def load(args):
 def main(args) -> int:
     from ..runner import run
 
+    if not args.quiet:
+        _tell_when_compiling()
     spec = load(args)
     mode = "resume" if args.resume else ("overwrite" if args.overwrite else "new")
     run(spec, args.output, steps=args.steps, mode=mode, render=args.render,
         reporter=reporter_for(args))
     return 0
+
+
+def _tell_when_compiling() -> None:
+    """Say once why a first run after installing is slow (numba compiles the kernels)."""
+    from ..kernels.compiling import when_compiling_starts
+
+    when_compiling_starts(lambda: print(
+        "ipcsim: compiling the numba kernels for this machine (once after installing; "
+        "later runs start at once)", file=sys.stderr, flush=True))

@@ -9,9 +9,11 @@ body and a ``meshCO`` obstacle remain, as in the original.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
+
+from ..kernels.broad_phase import primitive_tags
 
 
 def _index_array(a, cols: int, name: str) -> np.ndarray:
@@ -39,6 +41,8 @@ class CollisionMesh:
     kinematic: np.ndarray
     self_collision: bool = True
     rest: np.ndarray | None = None
+    # [body, all kinematic] of every point, edge and triangle (the broad phase's filters)
+    tags: tuple[np.ndarray, np.ndarray, np.ndarray] = field(init=False, repr=False)
 
     def __post_init__(self):
         # writable C-contiguous copies: numba compiles a second version of every kernel
@@ -58,6 +62,9 @@ class CollisionMesh:
         for prims in (self.vertices, self.edges, self.triangles):
             if prims.size and (prims.min() < 0 or prims.max() >= n):
                 raise ValueError("vertex index out of range")
+        object.__setattr__(self, "tags", tuple(
+            primitive_tags(prims, self.body, self.kinematic)
+            for prims in (self.vertices.reshape(-1, 1), self.edges, self.triangles)))
 
     @staticmethod
     def of(n_vertices: int, vertices, edges, triangles, body=None, kinematic=None,

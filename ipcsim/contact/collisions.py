@@ -59,6 +59,15 @@ class Collisions:
     def __len__(self) -> int:
         return len(self.pt) + len(self.ee)
 
+    def may_be_active(self, dhat: float) -> bool:
+        """False when the distances show no pair closer than d̂ (at the positions the set
+        was found at); True when some is, or when the set has no distances (swept)."""
+        d = self.distances
+        if d is None:
+            return len(self) > 0
+        s_hat = dhat * dhat
+        return bool((d.pt_d2 < s_hat).any() or (d.ee_d2 < s_hat).any())
+
     def count(self, dhat: float) -> MeshContactCount:
         """Active pairs and the smallest distance (needs the distances)."""
         d = self.distances

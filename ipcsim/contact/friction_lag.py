@@ -49,13 +49,13 @@ def lag_friction(x_lag, x_start, collisions: Collisions | None, planes: Planes |
     x_lag = np.ascontiguousarray(x_lag, dtype=float).reshape(-1, 3)
     s_hat = float(dhat) ** 2
     parts = []
-    if mu_mesh > 0.0 and collisions is not None and len(collisions):
+    if mu_mesh > 0.0 and collisions is not None and collisions.may_be_active(dhat):
         keep, v, c, b, lam = kf.lag_mesh_pairs(x_lag, collisions.pt, collisions.ee,
                                                collisions.ee_eps_x, s_hat, float(kappa))
         parts.append((v[keep], c[keep], b[keep], float(mu_mesh) * lam[keep]))
     if planes is not None and len(planes.vertices):
         use = planes.friction > 0.0
-        if np.any(use):
+        if np.any(use) and planes.count(x_lag, dhat)[0] > 0:
             origins = np.ascontiguousarray(planes.origins[use])
             normals = np.ascontiguousarray(planes.normals[use])
             pl, v, c, b, lam = kf.lag_plane_pairs(x_lag, planes.vertices, origins, normals,

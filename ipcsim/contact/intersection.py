@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ipcsim.kernels import intersection as _k
+from ipcsim.model.surface import unique_edges
 
 COPLANAR = 2
 TRANSVERSAL = 1
@@ -47,11 +48,9 @@ def _connectivity(a, width: int, n: int, name: str) -> np.ndarray:
 
 
 def edges_of_triangles(triangles) -> np.ndarray:
-    """The unique undirected edges (i < j) of a triangle list, sorted."""
-    t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
-    e = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
-    e.sort(axis=1)
-    return np.unique(e, axis=0)
+    """The unique undirected edges (i < j) of a triangle list, sorted
+    (``model.surface.unique_edges``)."""
+    return unique_edges(triangles)
 
 
 def find_intersections(

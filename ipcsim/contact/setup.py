@@ -48,7 +48,9 @@ class ContactSetup:
 
     @staticmethod
     def from_model(model) -> "ContactSetup":
-        barrier = model.contact_formulation == "barrier"
+        # the SQP / QP baselines have no barrier and no CCD filter of their steps
+        barrier = (model.contact_formulation == "barrier"
+                   and getattr(model, "constraint_solver", None) is None)
         return ContactSetup(
             mesh=CollisionMesh.from_model(model) if model.needs_mesh_contact else None,
             planes=Planes.from_model(model) if model.needs_plane_contact else None,

@@ -8,9 +8,9 @@ lagged normal forces and tangent bases are recomputed from xₙ at the start of 
 so they are not part of it. Everything is stored as the exact doubles, which is why a
 resumed run repeats the uninterrupted one to round-off.
 
-The run command writes a checkpoint with every frame and when it is interrupted, always
-after that step's frame and CSV rows are on disk; the file is replaced atomically, so it
-is never half written. It carries a format version and the digest of the run's inputs
+The run command writes a checkpoint with a frame at most every few seconds of wall time,
+at the last step and when it is interrupted, always after that step's frame and CSV rows
+are forced to disk; the file is replaced atomically, so it is never half written. It carries a format version and the digest of the run's inputs
 (the resolved scene and the bytes of every mesh), and :mod:`ipcsim.io.resume` checks it
 against the folder's frames and logs before ``--resume`` changes anything; then rows and
 frames of steps after the checkpoint are dropped (they are recomputed).

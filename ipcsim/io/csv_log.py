@@ -144,6 +144,12 @@ class CsvLog:
         if self.fsync:
             os.fsync(self._file.fileno())
 
+    def sync(self) -> None:
+        """Force the rows written so far to disk."""
+        if not self._file.closed:
+            self._file.flush()
+            os.fsync(self._file.fileno())
+
     def append(self, row: Mapping[str, object]) -> None:
         """Write one row; see the class docstring for the rules."""
         if self._file.closed:

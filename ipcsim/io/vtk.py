@@ -23,7 +23,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from ..atomic import atomic_write_bytes, atomic_write_text
+from ..atomic import atomic_write_bytes, atomic_write_text, sync_to_disk
 from ..errors import IpcsimError, excerpt, one_line
 
 __all__ = [
@@ -148,6 +148,9 @@ class FrameWriter:
 
     ``compression_level`` is the zlib level for per-frame arrays (``None`` writes them
     uncompressed); ``fsync`` forces every file to disk before it replaces the old one.
+    Without it (the default: a run forces its output to disk at each checkpoint instead),
+    files are still replaced atomically, and ``sync()`` forces those written since the
+    last call to disk.
     """
 
     def __init__(
@@ -160,7 +163,7 @@ class FrameWriter:
         segments=None,
         points=None,
         compression_level: int | None = 1,
-        fsync: bool = True,
+        fsync: bool = False,
     ):
         if body_id is None:
             raise ValueError("body_id (one entry per vertex) is required")
@@ -204,6 +207,7 @@ class FrameWriter:
         self._body_id = _as_point_array("body_id", body.astype(np.int64), n)
         self._body_xml = _data_array("body_id", self._body_id, compression_level)
         self._series: dict[int, tuple[float, str]] = {}
+        self._unsynced: set[Path] = set()  # written without fsync since the last sync()
         self.frames_dir.mkdir(parents=True, exist_ok=True)
 
     @property
@@ -263,9 +267,15 @@ class FrameWriter:
         name = frame_file_name(index)
         path = self.frames_dir / name
         atomic_write_bytes(path, "".join(parts).encode("ascii"), fsync=self.fsync)
+        self._unsynced.add(path)
         self._series[index] = (time, name)
         self._write_series()
         return path
+
+    def sync(self) -> None:
+        """Force the frames and the series written since the last call to disk."""
+        sync_to_disk(sorted(self._unsynced))
+        self._unsynced.clear()
 
     def resume(self, last_index: int, time_of) -> None:
         """Continue a run whose frames are already in the folder: frames up to
@@ -293,6 +303,7 @@ class FrameWriter:
             lines.append(f'    <DataSet timestep="{t!r}" part="0" file={quoteattr(name)}/>\n')
         lines.append("  </Collection>\n</VTKFile>\n")
         atomic_write_text(self.series_path, "".join(lines), fsync=self.fsync)
+        self._unsynced.add(self.series_path)
 
 
 class FrameError(IpcsimError):

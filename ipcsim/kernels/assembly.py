@@ -20,6 +20,38 @@ def add_triplets(indptr, indices, data, rows, cols, vals, free_index, p, couplin
     DOF numbers; zero triplets add no entry. ``coupling`` (free DOFs) gets T_fk p_k
     added in place."""
     n = indptr.shape[0] - 1
+    keys, kept = _free_keys(rows, cols, vals, free_index, p, coupling, n)
+    order = np.argsort(keys, kind="mergesort")  # stable: duplicates summed in order
+    t_col, t_row, t_val = _summed(keys[order], kept[order], n)
+    out_ptr = np.zeros(n + 1, dtype=np.int32)  # int32 as scipy keeps it (sizes < 2³¹)
+    out_idx = np.empty(indices.shape[0] + t_col.shape[0], dtype=np.int32)
+    out_val = np.empty(indices.shape[0] + t_col.shape[0], dtype=np.float64)
+    o = 0
+    j = 0  # next summed triplet, by column then row
+    m = t_col.shape[0]
+    for col in range(n):
+        a, end = indptr[col], indptr[col + 1]
+        while a < end or (j < m and t_col[j] == col):
+            if j < m and t_col[j] == col and (a == end or t_row[j] <= indices[a]):
+                row, value = t_row[j], t_val[j]
+                if a < end and indices[a] == row:  # an entry of A gets the triplets' sum
+                    value += data[a]
+                    a += 1
+                j += 1
+            else:
+                row, value = indices[a], data[a]
+                a += 1
+            out_idx[o] = row
+            out_val[o] = value
+            o += 1
+        out_ptr[col + 1] = o
+    return out_ptr, out_idx[:o], out_val[:o]
+
+
+@njit(cache=True)
+def _free_keys(rows, cols, vals, free_index, p, coupling, n):
+    """Column-major keys col·n + row and values of the free-free triplets; free-kinematic
+    ones go into the coupling."""
     m = rows.shape[0]
     keys = np.empty(m, dtype=np.int64)
     kept = np.empty(m, dtype=np.float64)
@@ -32,32 +64,103 @@ def add_triplets(indptr, indices, data, rows, cols, vals, free_index, p, couplin
         if c < 0:
             coupling[r] += vals[t] * p[cols[t]]
             continue
-        keys[k] = np.int64(c) * n + r  # column-major: CSC order
+        keys[k] = np.int64(c) * n + r
         kept[k] = vals[t]
         k += 1
-    order = np.argsort(keys[:k], kind="mergesort")  # stable: duplicates summed in order
-    out_ptr = np.zeros(n + 1, dtype=np.int32)  # int32 as scipy keeps it (sizes < 2³¹)
-    out_idx = np.empty(indices.shape[0] + k, dtype=np.int32)
-    out_val = np.empty(indices.shape[0] + k, dtype=np.float64)
+    return keys[:k], kept[:k]
+
+
+@njit(cache=True)
+def _summed(keys, vals, n):
+    """(columns, rows, sums) of the distinct sorted keys, duplicates summed in order."""
+    m = keys.shape[0]
+    col = np.empty(m, dtype=np.int64)
+    row = np.empty(m, dtype=np.int64)
+    val = np.empty(m, dtype=np.float64)
+    u = -1
+    for t in range(m):
+        if u < 0 or keys[t] != keys[t - 1]:
+            u += 1
+            col[u] = keys[t] // n
+            row[u] = keys[t] - col[u] * n
+            val[u] = vals[t]
+        else:
+            val[u] += vals[t]
+    return col[:u + 1], row[:u + 1], val[:u + 1]
+
+
+# --- the fixed pattern of inertia, elasticity and damping -------------------------------
+
+@njit(cache=True)
+def count_free_columns(rows, cols, free_index, counts):
+    """counts[c + 1] += the triplets of free column c whose row is free too."""
+    for t in range(rows.shape[0]):
+        r = free_index[rows[t]]
+        c = free_index[cols[t]]
+        if r >= 0 and c >= 0:
+            counts[c + 1] += 1
+
+
+@njit(cache=True)
+def bucket_rows(rows, cols, free_index, fill, bucket):
+    """bucket[fill[c]] = r for every free-free triplet (r, c), fill[c] advancing."""
+    for t in range(rows.shape[0]):
+        r = free_index[rows[t]]
+        c = free_index[cols[t]]
+        if r >= 0 and c >= 0:
+            bucket[fill[c]] = r
+            fill[c] += 1
+
+
+@njit(cache=True)
+def unique_column_rows(start, bucket):
+    """CSC (indptr, indices) int32 of the distinct rows of each column's bucket
+    bucket[start[c]:start[c + 1]], sorted."""
+    n = start.shape[0] - 1
+    indptr = np.zeros(n + 1, dtype=np.int32)
+    indices = np.empty(bucket.shape[0], dtype=np.int32)
     o = 0
-    j = 0  # next sorted triplet
-    for col in range(n):
-        a, end = indptr[col], indptr[col + 1]
-        while True:
-            has_a = a < end
-            has_t = j < k and keys[order[j]] // n == col
-            if not has_a and not has_t:
-                break
-            if has_a and (not has_t or indices[a] <= keys[order[j]] % n):
-                row, value = indices[a], data[a]
-                a += 1
+    for c in range(n):
+        rows = np.sort(bucket[start[c]:start[c + 1]])
+        for i in range(rows.shape[0]):
+            if i == 0 or rows[i] != rows[i - 1]:
+                indices[o] = rows[i]
+                o += 1
+        indptr[c + 1] = o
+    return indptr, indices[:o].copy()
+
+
+@njit(cache=True)
+def csc_slots(rows, cols, free_index, indptr, indices):
+    """The slot of every triplet in the CSC pattern (int32; −1 when its row or column is
+    kinematic), found by bisection in its column."""
+    slots = np.full(rows.shape[0], -1, dtype=np.int32)
+    for t in range(rows.shape[0]):
+        r = free_index[rows[t]]
+        c = free_index[cols[t]]
+        if r < 0 or c < 0:
+            continue
+        lo, hi = indptr[c], indptr[c + 1]
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if indices[mid] < r:
+                lo = mid + 1
             else:
-                row, value = keys[order[j]] % n, 0.0
-            while j < k and keys[order[j]] == col * n + row:
-                value += kept[order[j]]
-                j += 1
-            out_idx[o] = row
-            out_val[o] = value
-            o += 1
-        out_ptr[col + 1] = o
-    return out_ptr, out_idx[:o], out_val[:o]
+                hi = mid
+        slots[t] = lo
+    return slots
+
+
+@njit(cache=True)
+def scatter_into_pattern(data, slots, vals, scale, rows, cols, free_index, p, coupling):
+    """data[slots[t]] += scale·vals[t]; a triplet of a free row and a kinematic column
+    adds scale·vals[t]·p[col] to the coupling of its row instead."""
+    for t in range(vals.shape[0]):
+        v = scale * vals[t]
+        s = slots[t]
+        if s >= 0:
+            data[s] += v
+            continue
+        r = free_index[rows[t]]
+        if r >= 0:
+            coupling[r] += v * p[cols[t]]

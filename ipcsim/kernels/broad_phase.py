@@ -34,12 +34,14 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ipcsim.kernels.twin import kernel
+
 LEAF_SIZE = 4
 _STACK = 64  # depth of a complete tree over < 2**62 leaves, plus slack
 _MORTON_BITS = 21  # bits per axis: 3 * 21 = 63 bits fit in an int64
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def primitive_boxes(x0, x1, prims, inflation):
     """Boxes ``(m, 6) = [lo_x, lo_y, lo_z, hi_x, hi_y, hi_z]`` of ``prims (m, k)`` over the
     positions ``x0`` and ``x1`` (pass ``x1 = x0`` for a static box), grown by inflation/2."""
@@ -203,7 +205,7 @@ _BUFFER = 16  # hits kept per query in the first pass; queries with more are wal
 _CHUNK = 256  # queries per parallel task
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def query_bvh(query, tree, same_set, self_collision):
     """All kept pairs ``(k, 2) = [query primitive, tree primitive]`` whose boxes overlap.
 
@@ -285,7 +287,7 @@ def gather_rows(first, second, pairs):
     return rows
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def swept_pairs_within(x0, x1, pairs, split, inflation):
     """Mask of the pairs (rows of 4 vertices: the first ``split`` form one primitive, the
     rest the other) whose boxes over the motion x0 -> x1, grown by inflation/2, overlap:

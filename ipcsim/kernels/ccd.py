@@ -29,10 +29,31 @@ is conservative). ``ccd_max_step`` runs the queries in rounds of growing iterati
 drops every query whose safe time already reaches the smallest finished result, so long queries
 only run while they could still lower the step.
 
-The distances here are squared point-triangle and edge-edge distances written for CCD: every
-rounding choice errs low (a lower bound of the exact distance is still safe for ACCD).
-Distances below ``1e-12·scale`` (scale = largest coordinate magnitude of the stencil over the
-step) cannot be resolved in float64; such a query returns 0.
+Distances are those of ``kernels/distance.py`` (closest feature chosen as ipctk does, then
+that feature's distance), the ones the barrier uses; ``point_triangle_distance_sq(q)`` and
+``edge_edge_distance_sq(q)`` here only take the stencil as one (4, 3) array. They are not
+lower bounds, and need not be. A computed distance d_c = (1 + e)·d (d the exact one)
+advances by δ = s·d_c/l_p, over which the exact distance stays at least
+d − l_p·δ = (1 − s·(1 + e))·d. With s = (1 − f)(1 − 1e-3) that is at least f·d (the step
+keeps its gap fraction) while e ≤ 1e-3/(1 − 1e-3), and positive while e < 1/s − 1 (0.11 for
+f = 0.1). The stop test compares computed distances, so the gap at the returned time is
+f·d0 up to the same relative error.
+
+The rounding error is a few ulps of the coordinate scale, |d_c − d| ≤ c·ε·scale (scale =
+largest coordinate magnitude of the stencil over the step), c of order one for well-shaped
+primitives (measured against 60-digit references at distances from 1e-12 to 1e-1 of the
+scale, up to 1e3 away from the origin: c < 2 for triangles without angles under 10° and
+edges crossing at 3° or more; tests/kernels/test_ccd_distances.py asserts c ≤ 4). Queries
+closer than ``1e-12·scale`` count as touching (they return 0: float64 cannot resolve them),
+so e ≤ c·ε·scale/d ≤ c·2.2e-4 < 1e-3 down to that threshold, and e ≤ c·2.2e-6 from
+1e-10·scale on: the relative rounding is covered by the 1e-3 margin, and positivity by a
+hundred times more. c grows with ill-conditioning: as 1/sin of the smallest angle of a
+sliver triangle (its plane is known only that well; c ≈ 700 was seen for an angle of
+7e-6 rad), and for edges within sin θ ≲ 1e-7 of parallel, whose closest features are then
+uncertain, the error reaches the smaller of ε·L/sin θ and L·sin θ, at most about 1e-8·L
+(L the edge length; below sin²θ = 2.5e-16, distance.EE_PARALLEL_THRESHOLD, they are
+treated as parallel), which is more than 11 % of d only for d below ~1e-7·L.
+Degenerate triangles (collinear vertices) are measured by their three edges.
 """
 
 from __future__ import annotations
@@ -40,11 +61,13 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ipcsim.kernels import distance as _d
+from ipcsim.kernels.twin import running_parallel
+
 DEFAULT_MIN_GAP_FRACTION = 0.1
 DEFAULT_MAX_ITERATIONS = 10_000
 _STEP_SAFETY = 1.0 - 1e-3
 _TINY_REL = 1e-12  # distances below this times the coordinate scale count as touching
-_PARAM_TOL = 1e-9  # slack on closest-point parameters before the smaller line distance is used
 _CHUNK = 64  # queries per parallel task
 _SERIAL_BELOW = 256  # fewer queries than this run on one thread
 
@@ -53,104 +76,26 @@ _T, _D0, _LP, _DONE, _ITERS = 0, 1, 2, 3, 4
 
 
 @njit(cache=True)
-def _point_segment_distance_sq(q, ip, ia, ib):
-    # t* = clamp((p - a)·(b - a) / |b - a|², 0, 1);  d² = |p - a - t*(b - a)|²  (t* = 0 if a = b)
-    abx = q[ib, 0] - q[ia, 0]
-    aby = q[ib, 1] - q[ia, 1]
-    abz = q[ib, 2] - q[ia, 2]
-    apx = q[ip, 0] - q[ia, 0]
-    apy = q[ip, 1] - q[ia, 1]
-    apz = q[ip, 2] - q[ia, 2]
-    den = abx * abx + aby * aby + abz * abz
-    t = 0.0
-    if den > 0.0:
-        t = (apx * abx + apy * aby + apz * abz) / den
-        t = min(max(t, 0.0), 1.0)
-    dx = apx - t * abx
-    dy = apy - t * aby
-    dz = apz - t * abz
-    return dx * dx + dy * dy + dz * dz
+def _rows(q):
+    # the four rows of a (4, 3) stencil as tuples (registers: no array views, no refcounts)
+    return ((q[0, 0], q[0, 1], q[0, 2]), (q[1, 0], q[1, 1], q[1, 2]),
+            (q[2, 0], q[2, 1], q[2, 2]), (q[3, 0], q[3, 1], q[3, 2]))
 
 
 @njit(cache=True)
 def point_triangle_distance_sq(q):
-    """Squared distance between q[0] and the triangle q[1], q[2], q[3] ((4, 3) array).
-
-    min over the three edges (point-segment), and the plane distance ((p - t0)·n)² / |n|²,
-    n = (t1 - t0) × (t2 - t0), when p projects inside (all barycentric coordinates ≥ -1e-9).
-    A degenerate triangle (n = 0) is covered by its edges."""
-    d = min(_point_segment_distance_sq(q, 0, 1, 2), _point_segment_distance_sq(q, 0, 2, 3),
-            _point_segment_distance_sq(q, 0, 3, 1))
-    e0x = q[2, 0] - q[1, 0]
-    e0y = q[2, 1] - q[1, 1]
-    e0z = q[2, 2] - q[1, 2]
-    e1x = q[3, 0] - q[1, 0]
-    e1y = q[3, 1] - q[1, 1]
-    e1z = q[3, 2] - q[1, 2]
-    nx = e0y * e1z - e0z * e1y
-    ny = e0z * e1x - e0x * e1z
-    nz = e0x * e1y - e0y * e1x
-    nn = nx * nx + ny * ny + nz * nz
-    if nn > 0.0:
-        # barycentric weight of vertex k, times |n|²: ((t_{k+2} - t_{k+1}) × (p - t_{k+1}))·n
-        lim = -1e-9 * nn
-        inside = True
-        for k in range(3):
-            ia = 1 + (k + 1) % 3
-            ib = 1 + (k + 2) % 3
-            ex = q[ib, 0] - q[ia, 0]
-            ey = q[ib, 1] - q[ia, 1]
-            ez = q[ib, 2] - q[ia, 2]
-            wx = q[0, 0] - q[ia, 0]
-            wy = q[0, 1] - q[ia, 1]
-            wz = q[0, 2] - q[ia, 2]
-            c = (ey * wz - ez * wy) * nx + (ez * wx - ex * wz) * ny + (ex * wy - ey * wx) * nz
-            if c < lim:
-                inside = False
-        if inside:
-            h = (q[0, 0] - q[1, 0]) * nx + (q[0, 1] - q[1, 1]) * ny + (q[0, 2] - q[1, 2]) * nz
-            d = min(d, h * h / nn)
-    return d
+    """``distance.point_triangle_distance_sq`` (closest feature chosen automatically) of
+    the stencil q = (p, t0, t1, t2) given as one (4, 3) array."""
+    p, t0, t1, t2 = _rows(q)
+    return _d.point_triangle_distance_sq(p, t0, t1, t2)
 
 
 @njit(cache=True)
 def edge_edge_distance_sq(q):
-    """Squared distance between segments q[0]-q[1] and q[2]-q[3] ((4, 3) array).
-
-    min over the four endpoint-segment distances, and the line-line distance
-    (w·n)² / |n|², n = ea × eb, w = b0 - a0, when the closest points of the two lines,
-    s = ((w × eb)·n) / |n|² and u = ((w × ea)·n) / |n|², both lie in [0, 1] (± 1e-9).
-    Parallel segments (n = 0) reach their minimum at an endpoint; so do, up to |e|·sin θ,
-    nearly parallel ones (sin θ < 1e-6), whose line-line parameters are unreliable."""
-    d = min(_point_segment_distance_sq(q, 0, 2, 3), _point_segment_distance_sq(q, 1, 2, 3),
-            _point_segment_distance_sq(q, 2, 0, 1), _point_segment_distance_sq(q, 3, 0, 1))
-    ax = q[1, 0] - q[0, 0]
-    ay = q[1, 1] - q[0, 1]
-    az = q[1, 2] - q[0, 2]
-    bx = q[3, 0] - q[2, 0]
-    by = q[3, 1] - q[2, 1]
-    bz = q[3, 2] - q[2, 2]
-    nx = ay * bz - az * by
-    ny = az * bx - ax * bz
-    nz = ax * by - ay * bx
-    nn = nx * nx + ny * ny + nz * nz
-    aa = ax * ax + ay * ay + az * az
-    bb = bx * bx + by * by + bz * bz
-    # Nearly parallel (sin θ < 1e-6): the closest-point parameters s, u carry errors of
-    # order ε/sin²θ and are meaningless, so only the endpoint distances count; they exceed
-    # the true distance by at most |e|·sin θ, far below CCD's kept gap.
-    if nn > 1e-12 * aa * bb:
-        wx = q[2, 0] - q[0, 0]
-        wy = q[2, 1] - q[0, 1]
-        wz = q[2, 2] - q[0, 2]
-        s = ((wy * bz - wz * by) * nx + (wz * bx - wx * bz) * ny + (wx * by - wy * bx) * nz) / nn
-        u = ((wy * az - wz * ay) * nx + (wz * ax - wx * az) * ny + (wx * ay - wy * ax) * nz) / nn
-        lo = -_PARAM_TOL
-        hi = 1.0 + _PARAM_TOL
-        if lo <= s <= hi and lo <= u <= hi:
-            h = wx * nx + wy * ny + wz * nz
-            d = min(d, h * h / nn)
-    return d
+    """``distance.edge_edge_distance_sq`` (closest feature chosen automatically) of the
+    stencil q = (ea0, ea1, eb0, eb1) given as one (4, 3) array."""
+    a0, a1, b0, b1 = _rows(q)
+    return _d.edge_edge_distance_sq(a0, a1, b0, b1)
 
 
 @njit(cache=True)
@@ -170,11 +115,21 @@ def _load(x0, x1, stencil, q0, dq):
 
 
 @njit(cache=True)
-def _at(q0, dq, t, q):
-    # q(t) = q0 + t·dq
-    for r in range(4):
-        for a in range(3):
-            q[r, a] = q0[r, a] + t * dq[r, a]
+def _point_at(q0, dq, t, r):
+    # row r of q(t) = q0 + t·dq, as a tuple
+    return (q0[r, 0] + t * dq[r, 0], q0[r, 1] + t * dq[r, 1], q0[r, 2] + t * dq[r, 2])
+
+
+@njit(cache=True)
+def _distance_at(q0, dq, t, is_pt):
+    # _distance of q(t) = q0 + t·dq, without writing q(t) to an array
+    a = _point_at(q0, dq, t, 0)
+    b = _point_at(q0, dq, t, 1)
+    c = _point_at(q0, dq, t, 2)
+    d = _point_at(q0, dq, t, 3)
+    if is_pt:
+        return np.sqrt(_d.point_triangle_distance_sq(a, b, c, d))
+    return np.sqrt(_d.edge_edge_distance_sq(a, b, c, d))
 
 
 @njit(cache=True)
@@ -224,25 +179,22 @@ def _init_query(x0, x1, stencil, is_pt, q0, dq, state):
 @njit(cache=True)
 def _advance_query(x0, x1, stencil, is_pt, bufs, state, tmax, n_iter, f):
     # at most n_iter ACCD steps from the safe time state[_T], never past tmax
-    q0, dq, q = bufs[0], bufs[1], bufs[2]
+    q0, dq = bufs[0], bufs[1]
     _load(x0, x1, stencil, q0, dq)
     t = state[_T]
     lp = state[_LP]
     gap = f * state[_D0]
     s = (1.0 - f) * _STEP_SAFETY
-    _at(q0, dq, t, q)
-    d = _distance(q, is_pt)
+    d = _distance_at(q0, dq, t, is_pt)
     for _ in range(n_iter):
         state[_ITERS] += 1.0
         t_next = min(t + s * d / lp, tmax)  # d >= (1 - s)·d > 0 on [t, t_next]
-        _at(q0, dq, t_next, q)
-        d_next = _distance(q, is_pt)
+        d_next = _distance_at(q0, dq, t_next, is_pt)
         if not d_next >= gap:  # the gap would fall under f·d0: one last, shorter step,
             # d >= d - l_p·τ >= f·d0 on [t, t + (d - f·d0) / l_p], then stop
             t_last = min(t + _STEP_SAFETY * (d - gap) / lp, tmax)
             if t_last > t:
-                _at(q0, dq, t_last, q)
-                if _distance(q, is_pt) >= gap:
+                if _distance_at(q0, dq, t_last, is_pt) >= gap:
                     t = t_last
             state[_T] = t
             state[_DONE] = 1.0
@@ -279,7 +231,7 @@ def _init_serial(x0, x1, stencils, n_pt, state):
 @njit(cache=True)
 def _advance_chunk(x0, x1, stencils, n_pt, state, active, params, c):
     # params = (tmax, iterations per query, f); every query writes only its own state row
-    bufs = np.empty((3, 4, 3))
+    bufs = np.empty((2, 4, 3))
     for i in range(c * _CHUNK, min((c + 1) * _CHUNK, active.shape[0])):
         k = active[i]
         _advance_query(x0, x1, stencils[k], k < n_pt, bufs, state[k], params[0],
@@ -298,17 +250,24 @@ def _advance_serial(x0, x1, stencils, n_pt, state, active, params):
         _advance_chunk(x0, x1, stencils, n_pt, state, active, params, c)
 
 
+def _in_parallel(n_queries: int) -> bool:
+    """Many queries on more than one thread (``twin.running_parallel``): a parallel launch
+    costs more than a few queries do, and a serial run compiles no parallel variant."""
+    return running_parallel() and n_queries > _SERIAL_BELOW
+
+
 def _init(x0, x1, stencils, n_pt):
     state = np.empty((stencils.shape[0], 5))
-    run = _init_parallel if stencils.shape[0] > _SERIAL_BELOW else _init_serial
+    run = _init_parallel if _in_parallel(stencils.shape[0]) else _init_serial
     run(x0, x1, stencils, n_pt, state)
     return state
 
 
-def _advance(x0, x1, stencils, n_pt, state, active, tmax, n_iter, f):
+def _advance(x0, x1, stencils, n_pt, state, active, params):
+    """Advance the ``active`` queries; params = (t_max, iterations, min gap fraction)."""
     # a few queries run serially: a parallel launch costs more than they do
-    run = _advance_parallel if active.shape[0] > _SERIAL_BELOW else _advance_serial
-    run(x0, x1, stencils, n_pt, state, active, np.array([tmax, float(n_iter), f]))
+    run = _advance_parallel if _in_parallel(active.shape[0]) else _advance_serial
+    run(x0, x1, stencils, n_pt, state, active, np.array(params, dtype=np.float64))
 
 
 def _stack_stencils(pt_pairs, ee_pairs, n_vertices):
@@ -342,8 +301,8 @@ def ccd_query_steps(x0, x1, pt_pairs, ee_pairs, min_gap_fraction=DEFAULT_MIN_GAP
     state = _init(x0, x1, stencils, n_pt)
     active = np.flatnonzero(state[:, _DONE] == 0.0)
     if active.size:
-        _advance(x0, x1, stencils, n_pt, state, active, 1.0, max_iterations,
-                 float(min_gap_fraction))
+        _advance(x0, x1, stencils, n_pt, state, active,
+                 (1.0, float(max_iterations), float(min_gap_fraction)))
     return state[:, _T].copy(), state[:, _ITERS].copy()
 
 
@@ -370,7 +329,7 @@ def ccd_max_step(x0, x1, pt_pairs, ee_pairs, min_gap_fraction=DEFAULT_MIN_GAP_FR
         if active.size == 0 or spent >= max_iterations:
             break
         n_iter = min(budget, max_iterations - spent)
-        _advance(x0, x1, stencils, n_pt, state, active, alpha, n_iter, f)
+        _advance(x0, x1, stencils, n_pt, state, active, (alpha, float(n_iter), f))
         spent += n_iter
         budget *= 4
     running = state[:, _DONE] == 0.0

@@ -34,7 +34,7 @@ from ipcsim.kernels.distance import (
     point_triangle_distance_sq_hessian,
     point_triangle_distance_type,
 )
-from ipcsim.kernels.linalg import project_psd
+from ipcsim.kernels.linalg import ordered_sum, project_psd
 from ipcsim.kernels.scatter import scatter_stencil_gradients
 from ipcsim.kernels.mollifier import (
     edge_edge_cross_sq,
@@ -44,6 +44,7 @@ from ipcsim.kernels.mollifier import (
     mollifier_scalar_first_derivative,
     mollifier_scalar_second_derivative,
 )
+from ipcsim.kernels.twin import kernel
 
 HESSIAN_BLOCK = 144  # triplets per active pair (12 x 12 local Hessian)
 
@@ -150,8 +151,11 @@ def edge_edge_barrier_hessian(V, dtype, eps_x, s_hat, kappa):
     return H
 
 
+# --- stencil helpers, public: penalty.py builds its pairs with them too ------------------
+
 @njit(cache=True, error_model="numpy")
-def _gather(x, pair):
+def gather_stencil(x, pair):
+    """The (4, 3) array of the stencil's vertex positions: V[k] = x[pair[k]]."""
     V = np.empty((4, 3))
     for k in range(4):
         for a in range(3):
@@ -163,50 +167,52 @@ def _gather(x, pair):
 
 @njit(cache=True, error_model="numpy")
 def _pt_classify(x, pair):
-    V = _gather(x, pair)
+    V = gather_stencil(x, pair)
     t = point_triangle_distance_type(V[0], V[1], V[2], V[3])
     return t, point_triangle_distance_sq(V[0], V[1], V[2], V[3], t)
 
 
 @njit(cache=True, error_model="numpy")
 def _ee_classify(x, pair):
-    V = _gather(x, pair)
+    V = gather_stencil(x, pair)
     t = edge_edge_distance_type(V[0], V[1], V[2], V[3])
     return t, edge_edge_distance_sq(V[0], V[1], V[2], V[3], t)
 
 
 @njit(cache=True, error_model="numpy")
 def _pt_value_at(x, pair, s_hat, kappa):
-    V = _gather(x, pair)
+    V = gather_stencil(x, pair)
     return point_triangle_barrier(V, point_triangle_distance_type(V[0], V[1], V[2], V[3]),
                                   s_hat, kappa)
 
 
 @njit(cache=True, error_model="numpy")
 def _ee_value_at(x, pair, eps_x, s_hat, kappa):
-    V = _gather(x, pair)
+    V = gather_stencil(x, pair)
     return edge_edge_barrier(V, edge_edge_distance_type(V[0], V[1], V[2], V[3]),
                              eps_x, s_hat, kappa)
 
 
 @njit(cache=True, error_model="numpy")
 def _pt_gradient_at(x, pair, s_hat, kappa):
-    V = _gather(x, pair)
+    V = gather_stencil(x, pair)
     return point_triangle_barrier_gradient(
         V, point_triangle_distance_type(V[0], V[1], V[2], V[3]), s_hat, kappa)
 
 
 @njit(cache=True, error_model="numpy")
 def _ee_gradient_at(x, pair, eps_x, s_hat, kappa):
-    V = _gather(x, pair)
+    V = gather_stencil(x, pair)
     return edge_edge_barrier_gradient(
         V, edge_edge_distance_type(V[0], V[1], V[2], V[3]), eps_x, s_hat, kappa)
 
 
 @njit(cache=True, error_model="numpy")
-def _project_psd_on(H, feature):
+def project_psd_on_feature(H, feature):
     """project_psd(H) for a 12 x 12 H that is zero outside the vertices named in `feature`
-    (a *_FEATURES row): only that 6/9/12 block is decomposed (eigh costs ~n³)."""
+    (a row of distance.PT_FEATURES / EE_FEATURES: slots 1..4 name the stencil vertices
+    of the closest feature, −1 unused): only that 6/9/12 block is decomposed (eigh costs
+    ~n³). Returns a new 12 x 12 array."""
     nv = 0
     for k in range(1, 5):
         nv += feature[k] >= 0
@@ -231,30 +237,32 @@ def _project_psd_on(H, feature):
 
 @njit(cache=True, error_model="numpy")
 def _pt_hessian_into(x, pair, s_hat, kappa, project, rows, cols, vals, base):
-    V = _gather(x, pair)
+    V = gather_stencil(x, pair)
     t = point_triangle_distance_type(V[0], V[1], V[2], V[3])
     H = point_triangle_barrier_hessian(V, t, s_hat, kappa)
     if project:
-        H = _project_psd_on(H, PT_FEATURES[t])
-    _write_block(rows, cols, vals, base, pair, H)
+        H = project_psd_on_feature(H, PT_FEATURES[t])
+    write_hessian_block(rows, cols, vals, base, pair, H)
 
 
 @njit(cache=True, error_model="numpy")
 def _ee_hessian_into(x, pair, eps_x, s_hat, kappa, project, rows, cols, vals, base):
-    V = _gather(x, pair)
+    V = gather_stencil(x, pair)
     t = edge_edge_distance_type(V[0], V[1], V[2], V[3])
     H = edge_edge_barrier_hessian(V, t, eps_x, s_hat, kappa)
     if project:
         if edge_edge_cross_sq(V[0], V[1], V[2], V[3]) < eps_x:
             H = project_psd(H)  # the mollifier couples all four vertices
         else:
-            H = _project_psd_on(H, EE_FEATURES[t])
-    _write_block(rows, cols, vals, base, pair, H)
+            H = project_psd_on_feature(H, EE_FEATURES[t])
+    write_hessian_block(rows, cols, vals, base, pair, H)
 
 
 @njit(cache=True, error_model="numpy")
-def _write_block(rows, cols, vals, base, pair, H):
-    # slot base + 12 r + c  <-  (3 pair[r//3] + r%3, 3 pair[c//3] + c%3, H[r, c])
+def write_hessian_block(rows, cols, vals, base, pair, H):
+    """Write the 12 x 12 local Hessian H of the stencil ``pair`` (4 global vertex ids) as
+    144 COO triplets at slots [base, base + 144), row-major:
+    slot base + 12 r + c  <-  (3 pair[r//3] + r%3, 3 pair[c//3] + c%3, H[r, c])."""
     for r in range(12):
         gr = 3 * pair[r // 3] + r % 3
         for c in range(12):
@@ -268,7 +276,7 @@ def _write_block(rows, cols, vals, base, pair, H):
 # Batched kernels
 # =========================================================================================
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@kernel(parallel=True, error_model="numpy")
 def classify_and_distance(x, pt_pairs, ee_pairs):
     """Distance type (ipctk enum codes) and squared distance of every candidate pair.
     Returns (pt_type (k,) int64, pt_d2 (k,), ee_type (j,) int64, ee_d2 (j,)); a pair is
@@ -286,7 +294,7 @@ def classify_and_distance(x, pt_pairs, ee_pairs):
     return pt_type, pt_d2, ee_type, ee_d2
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@kernel(parallel=True, error_model="numpy")
 def barrier_value(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa):
     """Σ κ m b(d², ŝ) over the active pairs (m ≡ 1 for point-triangle).
     Per-pair terms go to an array first so that the sum is deterministic."""
@@ -297,10 +305,10 @@ def barrier_value(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa):
         terms[i] = _pt_value_at(x, pt_pairs[i], s_hat, kappa)
     for i in prange(j):
         terms[k + i] = _ee_value_at(x, ee_pairs[i], ee_eps_x[i], s_hat, kappa)
-    return terms.sum()
+    return ordered_sum(terms)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@kernel(parallel=True, error_model="numpy")
 def _local_gradients(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa):
     # (k + j, 12) local gradients (zero rows for inactive pairs); row i written by i only
     k = pt_pairs.shape[0]
@@ -317,14 +325,14 @@ def _local_gradients(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa):
     return G
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def barrier_gradient(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa):
     """∇B as a flat (3n,) vector: local gradients in parallel, then a serial scatter."""
     G = _local_gradients(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa)
     return scatter_stencil_gradients(G, pt_pairs, ee_pairs, x.shape[0])
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@kernel(parallel=True, error_model="numpy")
 def barrier_hessian_triplets(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa, project):
     """∇²B as COO triplets (rows, cols, vals), int64/int64/float64.
 

@@ -339,33 +339,57 @@ def point_edge_distance_type(p, e0, e1):
 
 @njit(cache=True, error_model="numpy")
 def _edge_frame_coords(p, a, b, n):
-    # coordinates of p − a in the orthogonal frame (e, e×n) of edge a->b:
-    # s = e·(p − a)/|e|² (along the edge), h = (e×n)·(p − a)/|e×n|² (> 0: outside the edge)
+    # coordinates of p − a in the orthogonal frame (e, e×n) of edge a->b, undivided:
+    # (e·(p − a), |e|², (e×n)·(p − a)). The edge parameter is s = e·(p − a)/|e|², and
+    # p is outside the edge when the last is ≥ 0. The type tests compare e·(p − a) with 0
+    # and |e|² instead of s with 0 and 1: the same outcome in floating point (a/L < 1 iff
+    # a < L for L > 0, barring underflow), without the divisions.
     e = sub3(b, a)
-    en = cross3(e, n)
     r = sub3(p, a)
-    return dot3(e, r) / squared_norm3(e), dot3(en, r) / squared_norm3(en)
+    return dot3(e, r), squared_norm3(e), dot3(cross3(e, n), r)
+
+
+@njit(cache=True, error_model="numpy")
+def degenerate_triangle_distance_type(p, t0, t1, t2):
+    """Type for a triangle with collinear vertices (normal exactly 0, no plane): the closest
+    of its three edges (t0t1, t1t2, t2t0) as segments, i.e. P_E{k} or a vertex P_T{k}
+    (the first edge wins a tie)."""
+    T = (t0, t1, t2)
+    best = PT_P_T0
+    d_best = np.inf
+    for k in range(3):
+        kb = (k + 1) % 3
+        pe = point_edge_distance_type(p, T[k], T[kb])
+        d = point_edge_distance_sq(p, T[k], T[kb], pe)
+        if d < d_best:
+            d_best = d
+            best = PT_P_E0 + k if pe == PE_P_E else (PT_P_T0 + k if pe == PE_P_E0 else PT_P_T0 + kb)
+    return best
 
 
 @njit(cache=True, error_model="numpy")
 def point_triangle_distance_type(p, t0, t1, t2):
     """P_E{k} when p projects inside edge k (t0t1, t1t2, t2t0) on its outer side; else a
-    vertex when p is beyond both of its edges' ends; else the interior P_T."""
+    vertex when p is beyond both of its edges' ends; else the interior P_T. A degenerate
+    triangle (collinear vertices) goes to degenerate_triangle_distance_type."""
     n = cross3(sub3(t1, t0), sub3(t2, t0))
-    s0, h0 = _edge_frame_coords(p, t0, t1, n)
-    if s0 > 0.0 and s0 < 1.0 and h0 >= 0.0:
+    if n[0] == 0.0 and n[1] == 0.0 and n[2] == 0.0:
+        return degenerate_triangle_distance_type(p, t0, t1, t2)
+    # per edge k: a_k = e·(p − t_k), L_k = |e|² (s_k = a_k / L_k), h_k ≥ 0: outside
+    a0, L0, h0 = _edge_frame_coords(p, t0, t1, n)
+    if a0 > 0.0 and a0 < L0 and h0 >= 0.0:
         return PT_P_E0
-    s1, h1 = _edge_frame_coords(p, t1, t2, n)
-    if s1 > 0.0 and s1 < 1.0 and h1 >= 0.0:
+    a1, L1, h1 = _edge_frame_coords(p, t1, t2, n)
+    if a1 > 0.0 and a1 < L1 and h1 >= 0.0:
         return PT_P_E1
-    s2, h2 = _edge_frame_coords(p, t2, t0, n)
-    if s2 > 0.0 and s2 < 1.0 and h2 >= 0.0:
+    a2, L2, h2 = _edge_frame_coords(p, t2, t0, n)
+    if a2 > 0.0 and a2 < L2 and h2 >= 0.0:
         return PT_P_E2
-    if s0 <= 0.0 and s2 >= 1.0:
+    if a0 <= 0.0 and a2 >= L2:
         return PT_P_T0
-    if s1 <= 0.0 and s0 >= 1.0:
+    if a1 <= 0.0 and a0 >= L0:
         return PT_P_T1
-    if s2 <= 0.0 and s1 >= 1.0:
+    if a2 <= 0.0 and a1 >= L1:
         return PT_P_T2
     return PT_P_T
 

@@ -53,6 +53,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ipcsim.kernels.linalg import cofactor3, det3, tet_edge_matrix
+from ipcsim.kernels.scatter import scatter_local_gradients
+from ipcsim.kernels.twin import kernel
+
 NEO_HOOKEAN = 0
 FIXED_COROTATED = 1
 
@@ -81,64 +85,18 @@ def _pair(k):
 
 
 @njit(cache=True, inline="always")
-def _det3(A):
-    # det A by cofactor expansion along the first row
-    return (
-        A[0, 0] * (A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1])
-        - A[0, 1] * (A[1, 0] * A[2, 2] - A[1, 2] * A[2, 0])
-        + A[0, 2] * (A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0])
-    )
-
-
-@njit(cache=True, inline="always")
-def _cofactor3(A, C):
-    # C = ∂det(A)/∂A = det(A) A⁻ᵀ (the cofactor matrix)
-    C[0, 0] = A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1]
-    C[0, 1] = A[1, 2] * A[2, 0] - A[1, 0] * A[2, 2]
-    C[0, 2] = A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]
-    C[1, 0] = A[0, 2] * A[2, 1] - A[0, 1] * A[2, 2]
-    C[1, 1] = A[0, 0] * A[2, 2] - A[0, 2] * A[2, 0]
-    C[1, 2] = A[0, 1] * A[2, 0] - A[0, 0] * A[2, 1]
-    C[2, 0] = A[0, 1] * A[1, 2] - A[0, 2] * A[1, 1]
-    C[2, 1] = A[0, 2] * A[1, 0] - A[0, 0] * A[1, 2]
-    C[2, 2] = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
-
-
-@njit(cache=True, inline="always")
-def _edge_matrix(x, tets, e, D):
-    # D = [x1 − x0, x2 − x0, x3 − x0] (columns)
-    i0 = tets[e, 0]
-    for c in range(3):
-        ic = tets[e, c + 1]
-        for a in range(3):
-            D[a, c] = x[ic, a] - x[i0, a]
-
-
-@njit(cache=True, inline="always")
 def _deformation_gradient(x, tets, Dm_inv, e, Ds, F):
     # F = Ds Dm⁻¹
-    _edge_matrix(x, tets, e, Ds)
+    tet_edge_matrix(x, tets, e, Ds)
     for a in range(3):
         for b in range(3):
             F[a, b] = Ds[a, 0] * Dm_inv[e, 0, b] + Ds[a, 1] * Dm_inv[e, 1, b] + Ds[a, 2] * Dm_inv[e, 2, b]
 
 
-@njit(cache=True)
-def _svd3(F, U, s, V, B):
-    """Rotation-variant SVD F = U diag(s) Vᵀ with det U = det V = +1, s0 ≥ s1 ≥ |s2|.
-
-    1. one-sided Jacobi (Hestenes): rotate column pairs of B = F V until they are
-       orthogonal (accurate also for small singular values, unlike eig(FᵀF));
-    2. sort columns by norm, make det V = +1 by negating the last column;
-    3. Givens QR of B = U R with U a product of rotations: R is diagonal up to round-off,
-       s = diag(R), and s2 carries the sign of det F.
-    B is scratch (3, 3).
-    """
-    for a in range(3):
-        for b in range(3):
-            B[a, b] = F[a, b]
-            V[a, b] = 1.0 if a == b else 0.0
-            U[a, b] = 1.0 if a == b else 0.0
+@njit(cache=True, inline="always")
+def _jacobi_orthogonalize(B, V):
+    # one-sided Jacobi (Hestenes): rotate column pairs of B (and V alike) until they are
+    # orthogonal
     for _sweep in range(20):
         t_max = 0.0  # largest rotation this sweep; Jacobi converges quadratically, so once
         #              every |t| < 1e-9 the off-diagonal left is ~1e-18 and we stop
@@ -169,7 +127,12 @@ def _svd3(F, U, s, V, B):
                 V[a, q] = sn * vp + c * vq
         if t_max < 1e-9:
             break
-    # sort columns by squared norm, descending (three compare-and-swaps)
+
+
+@njit(cache=True, inline="always")
+def _sort_columns(B, V):
+    # columns of B (and V alike) by squared norm, descending (three compare-and-swaps);
+    # then det V = +1 by negating the last column of both
     for k in range(3):
         p = 0 if k != 1 else 1
         q = p + 1
@@ -183,10 +146,14 @@ def _svd3(F, U, s, V, B):
                 tmp = V[a, p]
                 V[a, p] = V[a, q]
                 V[a, q] = tmp
-    if _det3(V) < 0.0:
+    if det3(V) < 0.0:
         for a in range(3):
             V[a, 2] = -V[a, 2]
             B[a, 2] = -B[a, 2]
+
+
+@njit(cache=True, inline="always")
+def _givens_qr(B, U):
     # Givens QR: zero B[1,0], B[2,0], B[2,1]; U ← U Gᵀ keeps F V = U B
     for k in range(3):
         if k == 0:
@@ -211,6 +178,27 @@ def _svd3(F, U, s, V, B):
             u1 = U[a, r1]
             U[a, r0] = c * u0 + sn * u1
             U[a, r1] = -sn * u0 + c * u1
+
+
+@njit(cache=True)
+def _svd3(F, U, s, V, B):
+    """Rotation-variant SVD F = U diag(s) Vᵀ with det U = det V = +1, s0 ≥ s1 ≥ |s2|.
+
+    1. one-sided Jacobi (Hestenes): rotate column pairs of B = F V until they are
+       orthogonal (accurate also for small singular values, unlike eig(FᵀF));
+    2. sort columns by norm, make det V = +1 by negating the last column;
+    3. Givens QR of B = U R with U a product of rotations: R is diagonal up to round-off,
+       s = diag(R), and s2 carries the sign of det F.
+    B is scratch (3, 3). The three steps are inlined (inline="always"): one call.
+    """
+    for a in range(3):
+        for b in range(3):
+            B[a, b] = F[a, b]
+            V[a, b] = 1.0 if a == b else 0.0
+            U[a, b] = 1.0 if a == b else 0.0
+    _jacobi_orthogonalize(B, V)
+    _sort_columns(B, V)
+    _givens_qr(B, U)
     s[0] = B[0, 0]
     s[1] = B[1, 1]
     s[2] = B[2, 2]
@@ -275,7 +263,7 @@ def _sym3_eig(A, w, Q, M):
 def _psi_from_F(F, mu, lam, model, U, s, V, B):
     if model == NEO_HOOKEAN:
         # Ψ = μ/2 (tr FᵀF − 3) − μ ln J + λ/2 (ln J)²
-        J = _det3(F)
+        J = det3(F)
         if J <= 0.0:
             return np.inf
         trc = 0.0
@@ -286,7 +274,7 @@ def _psi_from_F(F, mu, lam, model, U, s, V, B):
         return 0.5 * mu * (trc - 3.0) - mu * lnJ + 0.5 * lam * lnJ * lnJ
     # Ψ = μ Σ (σᵢ − 1)² + λ/2 (J − 1)²
     _svd3(F, U, s, V, B)
-    J = _det3(F)
+    J = det3(F)
     return mu * ((s[0] - 1.0) ** 2 + (s[1] - 1.0) ** 2 + (s[2] - 1.0) ** 2) + 0.5 * lam * (J - 1.0) ** 2
 
 
@@ -295,8 +283,8 @@ def _first_piola(F, mu, lam, model, P, U, s, V, B):
     """P = ∂Ψ/∂F. Returns False (and leaves P undefined) for NH with J ≤ 0."""
     if model == NEO_HOOKEAN:
         # P = μ F + (λ ln J − μ) F⁻ᵀ,  F⁻ᵀ = cof(F)/J
-        _cofactor3(F, B)
-        J = _det3(F)
+        cofactor3(F, B)
+        J = det3(F)
         if J <= 0.0:
             return False
         k = (lam * np.log(J) - mu) / J
@@ -356,7 +344,7 @@ def _is_spd3(A):
         return False
     if A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0] <= 0.0:
         return False
-    return _det3(A) > 0.0
+    return det3(A) > 0.0
 
 
 @njit(cache=True, inline="always")
@@ -460,7 +448,7 @@ def _tet_hessian(F, Dm_inv_e, vol, mu, lam, model, project_psd, H, S):
 # --------------------------------------------------------------------------------------
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def elastic_energy_per_tet(x, tets, Dm_inv, volumes, lame, model):
     """E_e = V_rest Ψ(F_e) for every tet, (m,); +∞ for an NH tet with J ≤ 0."""
     m = tets.shape[0]
@@ -480,7 +468,7 @@ def elastic_energy_per_tet(x, tets, Dm_inv, volumes, lame, model):
     return out
 
 
-@njit(cache=True)
+@kernel()
 def elastic_energy(x, tets, Dm_inv, volumes, lame, model):
     """Σₑ V_rest Ψ(Fₑ), summed serially in tet order (deterministic)."""
     per = elastic_energy_per_tet(x, tets, Dm_inv, volumes, lame, model)
@@ -490,7 +478,7 @@ def elastic_energy(x, tets, Dm_inv, volumes, lame, model):
     return total
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def elastic_local_gradients(x, tets, Dm_inv, volumes, lame, model):
     """Per-tet gradients (m, 12), local DOF 3·v + a: ∂E/∂x_{c+1} = V_rest (P Dm⁻ᵀ)[:, c],
     ∂E/∂x₀ = −Σ_c of those."""
@@ -524,26 +512,15 @@ def elastic_local_gradients(x, tets, Dm_inv, volumes, lame, model):
     return out
 
 
-@njit(cache=True)
-def scatter_local_gradients(local, tets, n_vertices):
-    """Flat (3n,) sum of per-tet (m, 12) gradients; serial, so no write races."""
-    g = np.zeros(3 * n_vertices)
-    for e in range(tets.shape[0]):
-        for v in range(4):
-            base = 3 * tets[e, v]
-            for a in range(3):
-                g[base + a] += local[e, 3 * v + a]
-    return g
-
-
-@njit(cache=True)
+@kernel()
 def elastic_gradient(x, tets, Dm_inv, volumes, lame, model):
-    """∂E/∂x as a flat (3n,) vector, DOF 3i + a."""
+    """∂E/∂x as a flat (3n,) vector, DOF 3i + a: per-tet gradients in parallel, then the
+    shared serial scatter (``scatter.scatter_local_gradients``)."""
     local = elastic_local_gradients(x, tets, Dm_inv, volumes, lame, model)
     return scatter_local_gradients(local, tets, x.shape[0])
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def tet_hessian_pattern(tets):
     """Rows and cols (int64, 144 m) of the element Hessians: entry 144e + 12r + c is
     (global DOF of local r, global DOF of local c), local DOF r = 3·v + a."""
@@ -560,7 +537,7 @@ def tet_hessian_pattern(tets):
     return rows, cols
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def elastic_hessian_values(x, tets, Dm_inv, volumes, lame, model, project_psd):
     """Values (144 m,) of the element Hessians, in the order of ``tet_hessian_pattern``;
     each 12×12 block projected to PSD when project_psd."""
@@ -583,7 +560,7 @@ def elastic_hessian_values(x, tets, Dm_inv, volumes, lame, model, project_psd):
     return vals
 
 
-@njit(cache=True)
+@kernel()
 def elastic_hessian(x, tets, Dm_inv, volumes, lame, model, project_psd):
     """COO triplets (rows, cols, vals) of ∂²E/∂x², 144 per tet at offset 144e."""
     rows, cols = tet_hessian_pattern(tets)
@@ -724,7 +701,7 @@ def _first_nonpositive(a, b, c, d):
     return 1.0
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def max_step_per_tet(x, p, tets, min_volume_ratio):
     """Per-tet bound (m,): largest α ∈ [0, 1] with det Ds(x + t p) > r det Ds(x) on [0, α)
     (r = min_volume_ratio ∈ [0, 1)); 0 for a tet that is already inverted or flat."""
@@ -737,20 +714,20 @@ def max_step_per_tet(x, p, tets, min_volume_ratio):
         Dp = S[1]
         C = S[2]
         for e in range(ch * _CHUNK, min(m, (ch + 1) * _CHUNK)):
-            _edge_matrix(x, tets, e, Ds)
-            _edge_matrix(p, tets, e, Dp)
+            tet_edge_matrix(x, tets, e, Ds)
+            tet_edge_matrix(p, tets, e, Dp)
             # det(Ds + t Dp) = det Dp t³ + ⟨cof Dp, Ds⟩ t² + ⟨cof Ds, Dp⟩ t + det Ds
-            d0 = _det3(Ds)
+            d0 = det3(Ds)
             if d0 <= 0.0:
                 out[e] = 0.0
                 continue
-            a = _det3(Dp)
-            _cofactor3(Dp, C)
+            a = det3(Dp)
+            cofactor3(Dp, C)
             b = 0.0
             for i in range(3):
                 for j in range(3):
                     b += C[i, j] * Ds[i, j]
-            _cofactor3(Ds, C)
+            cofactor3(Ds, C)
             c = 0.0
             for i in range(3):
                 for j in range(3):
@@ -760,7 +737,7 @@ def max_step_per_tet(x, p, tets, min_volume_ratio):
     return out
 
 
-@njit(cache=True)
+@kernel()
 def max_step_no_inversion(x, p, tets, min_volume_ratio):
     """Largest α ∈ [0, 1] such that every tet keeps det Ds(x + t p) > r · det Ds(x) for all
     t ∈ [0, α) (r = min_volume_ratio; the original IPC uses r = 0.1, i.e. no tet loses more

@@ -46,8 +46,10 @@ from ipcsim.kernels.distance import (
     POINT_POINT,
     PT_FEATURES,
 )
-from ipcsim.kernels.linalg import cross3, dot3, scale3, squared_norm3, sub3
+from ipcsim.kernels.linalg import cross3, dot3, ordered_sum, scale3, squared_norm3, sub3
 from ipcsim.kernels.mollifier import edge_edge_cross_sq
+from ipcsim.kernels.scatter import scatter_local_gradients
+from ipcsim.kernels.twin import kernel
 
 
 # =========================================================================================
@@ -163,7 +165,7 @@ def _lag_feature(x, pair, f, verts, coeffs, P):
     _basis_from_normal(n, P)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@kernel(parallel=True, error_model="numpy")
 def lag_mesh_pairs(x_lag, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa):
     """Lagged friction data of every PT pair then every EE pair at x_lag.
 
@@ -263,7 +265,7 @@ def _tangential(u, verts, coeffs, P):
             P[0, 1] * r0 + P[1, 1] * r1 + P[2, 1] * r2)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@kernel(parallel=True, error_model="numpy")
 def friction_value(u, verts, coeffs, basis, weight, eps):
     """D = Σ_k w_k f0(|P_kᵀ r_k|, ε); per-pair terms summed in a fixed order."""
     m = verts.shape[0]
@@ -271,38 +273,32 @@ def friction_value(u, verts, coeffs, basis, weight, eps):
     for k in prange(m):
         t0, t1 = _tangential(u, verts[k], coeffs[k], basis[k])
         terms[k] = weight[k] * f0(np.sqrt(t0 * t0 + t1 * t1), eps)
-    return terms.sum()
+    return ordered_sum(terms)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@kernel(parallel=True, error_model="numpy")
 def _local_gradients(u, verts, coeffs, basis, weight, eps):
-    # row k: w (f1/y) P τ  (3,), the force direction shared by the stencil (scaled by c_i)
+    # row k (12,): c_i w (f1/y) P τ on stencil vertex i (unused slots, verts = −1, hold
+    # c_i = 0 times it; the scatter skips them)
     m = verts.shape[0]
-    G = np.empty((m, 3))
+    G = np.empty((m, 12))
     for k in prange(m):
         P = basis[k]
         t0, t1 = _tangential(u, verts[k], coeffs[k], P)
         s = weight[k] * f1_over_y(np.sqrt(t0 * t0 + t1 * t1), eps)
         for a in range(3):
-            G[k, a] = s * (P[a, 0] * t0 + P[a, 1] * t1)
+            f = s * (P[a, 0] * t0 + P[a, 1] * t1)  # the force direction, shared by the stencil
+            for i in range(4):
+                G[k, 3 * i + a] = coeffs[k, i] * f
     return G
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def friction_gradient(u, verts, coeffs, basis, weight, eps):
-    """∇D (3n,): ∇_{u_i} D_k = c_i w (f1/y) P τ. Per-pair vectors in parallel, serial
-    scatter (race-free)."""
+    """∇D (3n,): ∇_{u_i} D_k = c_i w (f1/y) P τ. Per-pair gradients in parallel, then the
+    shared serial scatter (``scatter.scatter_local_gradients``; unused slots, −1, skipped)."""
     G = _local_gradients(u, verts, coeffs, basis, weight, eps)
-    g = np.zeros(3 * u.shape[0])
-    for k in range(verts.shape[0]):
-        for i in range(4):
-            v = verts[k, i]
-            if v < 0:
-                continue
-            c = coeffs[k, i]
-            for a in range(3):
-                g[3 * v + a] += c * G[k, a]
-    return g
+    return scatter_local_gradients(G, verts, u.shape[0])
 
 
 @njit(cache=True, error_model="numpy")
@@ -368,7 +364,7 @@ def _hessian_into(u, verts, coeffs, P, w, eps, project, rows, cols, vals, base):
             vals[o] = coeffs[i] * coeffs[j] * K[a, b]
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@kernel(parallel=True, error_model="numpy")
 def friction_hessian_triplets(u, verts, coeffs, basis, weight, eps, project, offsets):
     """∇²D as COO triplets (rows, cols, vals); pair k writes the slots
     [offsets[k], offsets[k+1]) only (parallel, disjoint). With `project` every local

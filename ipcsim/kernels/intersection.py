@@ -41,11 +41,12 @@ Non-finite coordinates give an unspecified answer; callers check ``np.isfinite``
 
 Broad phase
 -----------
-``edge_triangle_candidates`` is a small hashed uniform grid private to this checker (cell
-size = median primitive box size, oversized primitives tested against everything). It is
-deliberately independent of ``kernels/broad_phase.py`` so the checker does not trust the
-code it checks; the two could share box helpers later. The mesh-level kernels run
-sequentially (see the note in ``edge_triangle_candidates``).
+``edge_triangle_candidates`` is the package's broad phase (``kernels/broad_phase.py``, the
+BVH the simulation uses), run on exact boxes: no inflation, and the overlap test is
+inclusive (closed intervals), so a pair whose closed segment and closed triangle share a
+point always has overlapping boxes and is a candidate. The exactness of the check rests
+on the predicates below; the broad phase only has to be complete, which a box test is.
+``classify_edge_triangle_pairs`` runs sequentially (see the note there).
 """
 
 from __future__ import annotations
@@ -55,6 +56,10 @@ from itertools import permutations
 
 import numpy as np
 from numba import njit
+
+from ipcsim.kernels.broad_phase import build_bvh, primitive_boxes, query_bvh
+from ipcsim.kernels.linalg import tet_signed_volumes
+from ipcsim.kernels.twin import kernel
 
 _EPS = 2.0**-53
 _O3D_ERRBOUND = (7.0 + 56.0 * _EPS) * _EPS  # Shewchuk o3derrboundA
@@ -468,226 +473,42 @@ def segment_triangle_intersection(p, q, a, b, c):
 
 @njit(cache=True)
 def tet_orientations(x, tets, signs, volumes):
-    """signs[t] = exact orient3d of tet t (int8); volumes[t] = float det[b-a, c-a, d-a] / 6."""
+    """signs[t] = exact orient3d of tet t (int8); volumes[t] = its floating-point signed
+    volume det[b-a, c-a, d-a] / 6 (``linalg.tet_signed_volumes``, not exact)."""
     for t in range(tets.shape[0]):
-        a = x[tets[t, 0]]
-        b = x[tets[t, 1]]
-        c = x[tets[t, 2]]
-        d = x[tets[t, 3]]
-        signs[t] = orient3d(a, b, c, d)
-        ux = b[0] - a[0]
-        uy = b[1] - a[1]
-        uz = b[2] - a[2]
-        vx = c[0] - a[0]
-        vy = c[1] - a[1]
-        vz = c[2] - a[2]
-        wx = d[0] - a[0]
-        wy = d[1] - a[1]
-        wz = d[2] - a[2]
-        volumes[t] = (ux * (vy * wz - vz * wy) + uy * (vz * wx - vx * wz) + uz * (vx * wy - vy * wx)) / 6.0
+        signs[t] = orient3d(x[tets[t, 0]], x[tets[t, 1]], x[tets[t, 2]], x[tets[t, 3]])
+    volumes[:] = tet_signed_volumes(x, tets)
 
 
 @njit(cache=True)
-def _boxes(x, elems):
-    n, m = elems.shape
-    lo = np.empty((n, 3))
-    hi = np.empty((n, 3))
-    for e in range(n):
-        for k in range(3):
-            v = x[elems[e, 0], k]
-            lo[e, k] = v
-            hi[e, k] = v
-            for j in range(1, m):
-                v = x[elems[e, j], k]
-                lo[e, k] = min(lo[e, k], v)
-                hi[e, k] = max(hi[e, k], v)
-    return lo, hi
+def _body_tags(n, body):
+    # broad-phase tags [body id, kinematic = 0]; body 0 for all without body ids
+    tags = np.zeros((n, 2), np.int64)
+    if body.size > 0:
+        tags[:, 0] = body
+    return tags
 
 
-@njit(cache=True)
-def _pair_ok(e, t, prims):
-    # closed boxes overlap, no shared vertex index, different bodies (when bodies given)
-    edges, triangles, elo, ehi, tlo, thi, edge_body, triangle_body = prims
-    for k in range(3):
-        if ehi[e, k] < tlo[t, k] or thi[t, k] < elo[e, k]:
-            return False
-    for i in range(2):
-        for j in range(3):
-            if edges[e, i] == triangles[t, j]:
-                return False
-    if edge_body.size > 0 and edge_body[e] == triangle_body[t]:
-        return False
-    return True
-
-
-_BIG_CELLS = 64  # a primitive whose box covers more cells is kept out of the grid
-_MAX_CELLS_PER_AXIS = 1 << 20  # cell keys i + n0 (j + n1 k) stay below 2^61
-
-
-@njit(cache=True)
-def _cell(v, origin, inv_h, n):
-    # floor((v - origin) / h) clamped to 0..n-1; monotone in v, so box corners and
-    # reference points map consistently (clamped in float first: no inf/NaN to int)
-    c = (v - origin) * inv_h
-    if not c >= 0.0:
-        return np.int64(0)
-    if c >= n - 1:
-        return n - 1
-    return np.int64(math.floor(c))
-
-
-@njit(cache=True)
-def _bucket(key, mask):
-    # murmur3 finaliser of the linear cell key, masked to the table size
-    z = np.uint64(key)
-    z = (z ^ (z >> np.uint64(33))) * np.uint64(0xFF51AFD7ED558CCD)
-    z = (z ^ (z >> np.uint64(33))) * np.uint64(0xC4CEB9FE1A85EC53)
-    z = z ^ (z >> np.uint64(33))
-    return np.int64(z & np.uint64(mask))
-
-
-@njit(cache=True)
-def _cell_range(lo, hi, r, origin, inv_h, dims):
-    # inclusive cell index ranges of box r, and how many cells it covers
-    i0 = _cell(lo[r, 0], origin[0], inv_h, dims[0])
-    j0 = _cell(lo[r, 1], origin[1], inv_h, dims[1])
-    k0 = _cell(lo[r, 2], origin[2], inv_h, dims[2])
-    i1 = _cell(hi[r, 0], origin[0], inv_h, dims[0])
-    j1 = _cell(hi[r, 1], origin[1], inv_h, dims[1])
-    k1 = _cell(hi[r, 2], origin[2], inv_h, dims[2])
-    return i0, j0, k0, i1, j1, k1, (i1 - i0 + 1) * (j1 - j0 + 1) * (k1 - k0 + 1)
-
-
-@njit(cache=True)
-def _push(out, n, e, t):
-    # append (e, t) at row n, doubling the buffer when full
-    if n == out.shape[0]:
-        grown = np.empty((2 * n + 16, 2), np.int64)
-        grown[:n] = out[:n]
-        out = grown
-    out[n, 0] = e
-    out[n, 1] = t
-    return out, n + 1
-
-
-@njit(cache=True)
-def _edge_candidates(e, prims, grid, big_tris, out, n):
-    """Append the triangles pairing with edge e to out[:n]; returns (out, n)."""
-    edges, triangles, elo, ehi, tlo, thi, edge_body, triangle_body = prims
-    origin, inv_h, dims, start, entry_tri, entry_key, mask = grid
-    i0, j0, k0, i1, j1, k1, ncell = _cell_range(elo, ehi, e, origin, inv_h, dims)
-    if ncell > _BIG_CELLS:  # a long edge: test every triangle
-        for t in range(triangles.shape[0]):
-            if _pair_ok(e, t, prims):
-                out, n = _push(out, n, e, t)
-        return out, n
-    for i in range(i0, i1 + 1):
-        for j in range(j0, j1 + 1):
-            for k in range(k0, k1 + 1):
-                key = i + dims[0] * (j + dims[1] * k)
-                b = _bucket(key, mask)
-                for s in range(start[b], start[b + 1]):
-                    if entry_key[s] != key:
-                        continue  # another cell hashed to this bucket
-                    t = entry_tri[s]
-                    # report the pair only in the cell of the reference point
-                    # r = max(edge box min, triangle box min), which lies in both boxes
-                    if (
-                        _cell(max(elo[e, 0], tlo[t, 0]), origin[0], inv_h, dims[0]) != i
-                        or _cell(max(elo[e, 1], tlo[t, 1]), origin[1], inv_h, dims[1]) != j
-                        or _cell(max(elo[e, 2], tlo[t, 2]), origin[2], inv_h, dims[2]) != k
-                    ):
-                        continue
-                    if _pair_ok(e, t, prims):
-                        out, n = _push(out, n, e, t)
-    for t in big_tris:
-        if _pair_ok(e, t, prims):
-            out, n = _push(out, n, e, t)
-    return out, n
-
-
-@njit(cache=True)
+@kernel()
 def edge_triangle_candidates(x, edges, triangles, edge_body, triangle_body):
     """Pairs (edge, triangle) whose closed bounding boxes overlap and that share no vertex
     index, as an (m, 2) array. With nonempty body arrays, pairs whose edge and triangle
     have the same body are skipped.
 
-    Hashed uniform grid: cell size h = median box size; each triangle is registered in
-    the cells its box covers (hash buckets, CSR); each edge visits its cells and reports
-    a pair only in the cell holding the reference point max(box minima), so each pair
-    appears once. Triangles or edges covering more than _BIG_CELLS cells stay out of the
-    grid and are tested against everything by box.
-    """
-    ne = edges.shape[0]
-    nt = triangles.shape[0]
-    if ne == 0 or nt == 0:
+    The package's broad phase (``broad_phase``: BVH over the triangles' boxes, queried with
+    every edge's box), with exact boxes (no inflation: the min and max of the vertex
+    coordinates) and its inclusive overlap test, so every pair whose closed segment and
+    closed triangle share a point is a candidate. Rows come in the BVH's query order."""
+    if edges.shape[0] == 0 or triangles.shape[0] == 0:
         return np.empty((0, 2), np.int64)
-    elo, ehi = _boxes(x, edges)
-    tlo, thi = _boxes(x, triangles)
-    prims = (edges, triangles, elo, ehi, tlo, thi, edge_body, triangle_body)
-    origin = np.empty(3)
-    top = np.empty(3)
-    for k in range(3):
-        origin[k] = min(elo[:, k].min(), tlo[:, k].min())
-        top[k] = max(ehi[:, k].max(), thi[:, k].max())
-    sizes = np.empty(ne + nt)
-    for e in range(ne):
-        sizes[e] = (ehi[e] - elo[e]).max()
-    for t in range(nt):
-        sizes[ne + t] = (thi[t] - tlo[t]).max()
-    positive = sizes[sizes > 0.0]
-    h = np.median(positive) if positive.size > 0 else 1.0
-    h = max(h, (top - origin).max() / (_MAX_CELLS_PER_AXIS - 1))
-    inv_h = 1.0 / h
-    dims = np.empty(3, np.int64)
-    for k in range(3):
-        dims[k] = min(np.int64((top[k] - origin[k]) * inv_h) + 1, _MAX_CELLS_PER_AXIS)
-    # register triangles: count entries, size the table, CSR fill
-    small = np.zeros(nt, np.bool_)
-    nentry = 0
-    for t in range(nt):
-        ncell = _cell_range(tlo, thi, t, origin, inv_h, dims)[6]
-        if ncell <= _BIG_CELLS:
-            small[t] = True
-            nentry += ncell
-    nb = 16
-    while nb < 2 * nentry:
-        nb *= 2
-    mask = nb - 1
-    start = np.zeros(nb + 1, np.int64)
-    for t in range(nt):
-        if small[t]:
-            i0, j0, k0, i1, j1, k1, _ = _cell_range(tlo, thi, t, origin, inv_h, dims)
-            for i in range(i0, i1 + 1):
-                for j in range(j0, j1 + 1):
-                    for k in range(k0, k1 + 1):
-                        start[_bucket(i + dims[0] * (j + dims[1] * k), mask) + 1] += 1
-    for b in range(nb):
-        start[b + 1] += start[b]
-    fill = start[:-1].copy()
-    entry_tri = np.empty(nentry, np.int64)
-    entry_key = np.empty(nentry, np.int64)
-    for t in range(nt):
-        if small[t]:
-            i0, j0, k0, i1, j1, k1, _ = _cell_range(tlo, thi, t, origin, inv_h, dims)
-            for i in range(i0, i1 + 1):
-                for j in range(j0, j1 + 1):
-                    for k in range(k0, k1 + 1):
-                        key = i + dims[0] * (j + dims[1] * k)
-                        b = _bucket(key, mask)
-                        entry_tri[fill[b]] = t
-                        entry_key[fill[b]] = key
-                        fill[b] += 1
-    big_tris = np.flatnonzero(~small)
-    grid = (origin, inv_h, dims, start, entry_tri, entry_key, mask)
-    # sequential on purpose: in a prange, the many small calls taking arrays paid atomic
-    # reference counting on shared arrays (measured ~30x slower on two threads than one)
-    out = np.empty((ne + nt, 2), np.int64)
-    n = 0
-    for e in range(ne):
-        out, n = _edge_candidates(e, prims, grid, big_tris, out, n)
-    out = out[:n].copy()
-    return out
+    edge_boxes = primitive_boxes(x, x, edges, 0.0)
+    tri_boxes = primitive_boxes(x, x, triangles, 0.0)
+    nodes, leaf_boxes, order, last_slot = build_bvh(tri_boxes)
+    tree = (nodes, leaf_boxes, order, last_slot, triangles,
+            _body_tags(triangles.shape[0], triangle_body))
+    query = (edge_boxes, edges, _body_tags(edges.shape[0], edge_body))
+    # self_collision off drops the pairs with equal body tags; without body ids keep all
+    return query_bvh(query, tree, False, edge_body.size == 0)
 
 
 @njit(cache=True)

@@ -28,10 +28,10 @@ from numba import njit, prange
 
 from ipcsim.kernels.contact_barrier import (
     HESSIAN_BLOCK,
-    _gather,
-    _project_psd_on,
-    _write_block,
     classify_and_distance,
+    gather_stencil,
+    project_psd_on_feature,
+    write_hessian_block,
 )
 from ipcsim.kernels.distance import (
     EE_FEATURES,
@@ -46,12 +46,14 @@ from ipcsim.kernels.distance import (
     point_triangle_distance_type,
 )
 from ipcsim.kernels.plane_contact import (
-    _signed_distance,
     normal_gradient,
     normal_hessian_triplets,
     plane_distances,
+    signed_distance,
 )
+from ipcsim.kernels.linalg import ordered_sum
 from ipcsim.kernels.scatter import scatter_stencil_gradients
+from ipcsim.kernels.twin import kernel
 
 
 # =========================================================================================
@@ -64,7 +66,7 @@ def plane_penalty_value(x, vertices, origins, normals, dhat, k):
     total = 0.0
     for p in range(origins.shape[0]):
         for j in range(vertices.shape[0]):
-            gap = dhat - _signed_distance(x, vertices[j], origins[p], normals[p])
+            gap = dhat - signed_distance(x, vertices[j], origins[p], normals[p])
             if gap > 0.0:
                 total += 0.5 * k * gap * gap
     return total
@@ -114,7 +116,7 @@ def _pair_derivatives(V, is_pt):
 
 @njit(cache=True, error_model="numpy")
 def _pair_value(x, pair, is_pt, dhat, k):
-    V = _gather(x, pair)
+    V = gather_stencil(x, pair)
     if is_pt:
         s = point_triangle_distance_sq(V[0], V[1], V[2], V[3],
                                        point_triangle_distance_type(V[0], V[1], V[2], V[3]))
@@ -129,7 +131,7 @@ def _pair_value(x, pair, is_pt, dhat, k):
 @njit(cache=True, error_model="numpy")
 def _pair_gradient(x, pair, is_pt, dhat, k):
     # ∇P = f'(s) ∇s
-    s, g, _, _ = _pair_derivatives(_gather(x, pair), is_pt)
+    s, g, _, _ = _pair_derivatives(gather_stencil(x, pair), is_pt)
     if s >= dhat * dhat:
         return np.zeros(12)
     _, f1, _ = _penalty_of_sq(s, dhat, k)
@@ -141,17 +143,17 @@ def _pair_gradient(x, pair, is_pt, dhat, k):
 @njit(cache=True, error_model="numpy")
 def _pair_hessian_into(x, pair, is_pt, dhat, k, project, rows, cols, vals, base):
     # ∇²P = f'(s) ∇²s + f''(s) ∇s ∇sᵀ, projected to PSD on the closest feature's block
-    s, g, H, feature = _pair_derivatives(_gather(x, pair), is_pt)
+    s, g, H, feature = _pair_derivatives(gather_stencil(x, pair), is_pt)
     _, f1, f2 = _penalty_of_sq(s, dhat, k)
     for i in range(12):
         for j in range(12):
             H[i, j] = f1 * H[i, j] + f2 * g[i] * g[j]
     if project:
-        H = _project_psd_on(H, feature)
-    _write_block(rows, cols, vals, base, pair, H)
+        H = project_psd_on_feature(H, feature)
+    write_hessian_block(rows, cols, vals, base, pair, H)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@kernel(parallel=True, error_model="numpy")
 def mesh_penalty_value(x, pt_pairs, ee_pairs, dhat, k):
     """Σ ½ k (d̂ − d)² over the pairs closer than d̂ (per-pair terms summed in order, so
     the value is deterministic)."""
@@ -161,10 +163,10 @@ def mesh_penalty_value(x, pt_pairs, ee_pairs, dhat, k):
         terms[i] = _pair_value(x, pt_pairs[i], True, dhat, k)
     for i in prange(ee_pairs.shape[0]):
         terms[n_pt + i] = _pair_value(x, ee_pairs[i], False, dhat, k)
-    return terms.sum()
+    return ordered_sum(terms)
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@kernel(parallel=True, error_model="numpy")
 def _local_gradients(x, pt_pairs, ee_pairs, dhat, k):
     n_pt = pt_pairs.shape[0]
     G = np.empty((n_pt + ee_pairs.shape[0], 12))
@@ -175,14 +177,14 @@ def _local_gradients(x, pt_pairs, ee_pairs, dhat, k):
     return G
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def mesh_penalty_gradient(x, pt_pairs, ee_pairs, dhat, k):
     """∇P as a flat (3n,) vector: local gradients in parallel, then a serial scatter."""
     G = _local_gradients(x, pt_pairs, ee_pairs, dhat, k)
     return scatter_stencil_gradients(G, pt_pairs, ee_pairs, x.shape[0])
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@kernel(parallel=True, error_model="numpy")
 def mesh_penalty_hessian(x, pt_pairs, ee_pairs, dhat, k, project):
     """∇²P as COO triplets, 144 per active pair (d < d̂), active point–triangle pairs
     first; the same layout as ``contact_barrier.barrier_hessian_triplets``."""
@@ -224,7 +226,7 @@ def _solid_angle(p, a, b, c):
     return 2.0 * np.arctan2(det, den)
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def penetration_depths(x, query, triangles):
     """For each query vertex, its distance to the closed, outward-oriented surface
     ``triangles`` when it lies inside it (winding number > ½), else 0."""

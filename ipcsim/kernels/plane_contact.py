@@ -14,10 +14,13 @@ import numpy as np
 from numba import njit, prange
 
 from .barrier import barrier, barrier_first_derivative, barrier_second_derivative
+from .twin import kernel
 
 
 @njit(cache=True)
-def _signed_distance(x, v, o, nrm):
+def signed_distance(x, v, o, nrm):
+    """Signed distance n·(x[v] − o) of vertex v to the plane through o with unit normal n
+    (shared with the penalty kernels)."""
     return (nrm[0] * (x[v, 0] - o[0]) + nrm[1] * (x[v, 1] - o[1])
             + nrm[2] * (x[v, 2] - o[2]))
 
@@ -28,7 +31,7 @@ def plane_distances(x, vertices, origins, normals):
     d = np.empty((origins.shape[0], vertices.shape[0]))
     for k in range(origins.shape[0]):
         for j in range(vertices.shape[0]):
-            d[k, j] = _signed_distance(x, vertices[j], origins[k], normals[k])
+            d[k, j] = signed_distance(x, vertices[j], origins[k], normals[k])
     return d
 
 
@@ -37,7 +40,7 @@ def plane_barrier_value(x, vertices, origins, normals, s_hat, kappa):
     total = 0.0
     for k in range(origins.shape[0]):
         for j in range(vertices.shape[0]):
-            d = _signed_distance(x, vertices[j], origins[k], normals[k])
+            d = signed_distance(x, vertices[j], origins[k], normals[k])
             if d <= 0.0:
                 return np.inf  # on or below the plane: infeasible
             s = d * d
@@ -121,14 +124,14 @@ def plane_active_count_and_min_distance(x, vertices, origins, normals, s_hat):
     dmin = np.inf
     for k in range(origins.shape[0]):
         for j in range(vertices.shape[0]):
-            d = _signed_distance(x, vertices[j], origins[k], normals[k])
+            d = signed_distance(x, vertices[j], origins[k], normals[k])
             if d * d < s_hat:
                 count += 1
             dmin = min(dmin, d)
     return count, dmin
 
 
-@njit(cache=True, parallel=True)
+@kernel(parallel=True)
 def plane_ccd_max_step(x, p, vertices, origins, normals, keep_fraction):
     """Largest α ≤ 1 such that every vertex keeps ≥ keep_fraction of its gap to each plane.
 
@@ -140,7 +143,7 @@ def plane_ccd_max_step(x, p, vertices, origins, normals, keep_fraction):
     for j in prange(vertices.shape[0]):
         v = vertices[j]
         for k in range(n_planes):
-            d0 = _signed_distance(x, v, origins[k], normals[k])
+            d0 = signed_distance(x, v, origins[k], normals[k])
             rate = normals[k, 0] * p[3 * v] + normals[k, 1] * p[3 * v + 1] \
                 + normals[k, 2] * p[3 * v + 2]
             if rate < 0.0:

@@ -1,5 +1,10 @@
-"""Scatter-adds: COO values into a fixed sparse pattern; per-stencil gradients into a
-flat gradient."""
+"""Scatter-adds of per-stencil gradients into a flat gradient.
+
+Every per-stencil gradient of the package (elastic tets, barrier and penalty contact pairs,
+friction pairs) is summed into the flat (3n,) gradient by ``add_local_gradients``: serial,
+row by row in order, the stencil's vertices in order, so the sum is race-free and
+deterministic (the local gradients themselves are computed in parallel by the callers).
+"""
 
 from __future__ import annotations
 
@@ -8,22 +13,37 @@ from numba import njit
 
 
 @njit(cache=True)
-def scatter_add(data, slots, vals, keep):
-    """data[slots[k]] += vals[keep[k]] for every kept triplet k."""
-    for k in range(slots.shape[0]):
-        data[slots[k]] += vals[keep[k]]
+def add_local_gradients(grad, local, stencils):
+    """grad[3 v + a] += local[i, 3 j + a] for v = stencils[i, j] ≥ 0, in place.
+
+    ``local (k, 3 w)``: one row per stencil, vertex-major (3 j + a is axis a of the
+    stencil's j-th vertex); ``stencils (k, w)`` int: global vertex ids, negative entries
+    (unused slots) are skipped. Serial: rows in order, a row's vertices in order."""
+    w = stencils.shape[1]
+    for i in range(stencils.shape[0]):
+        for j in range(w):
+            v = stencils[i, j]
+            if v < 0:
+                continue
+            for a in range(3):
+                grad[3 * v + a] += local[i, 3 * j + a]
+
+
+@njit(cache=True)
+def scatter_local_gradients(local, stencils, n_vertices):
+    """Flat (3 n_vertices,) sum of per-stencil gradients ``local (k, 3 w)`` over
+    ``stencils (k, w)`` (see ``add_local_gradients``; negative ids are skipped)."""
+    grad = np.zeros(3 * n_vertices)
+    add_local_gradients(grad, local, stencils)
+    return grad
 
 
 @njit(cache=True)
 def scatter_stencil_gradients(G, pt_pairs, ee_pairs, n_vertices):
     """Flat (3n,) gradient from per-pair local gradients ``G`` (k + j, 12): row i belongs
-    to pt_pairs[i] (i < k), then to ee_pairs[i − k]. Serial, so race-free; the local
-    gradients themselves are computed in parallel by the caller."""
+    to pt_pairs[i] (i < k), then to ee_pairs[i − k]."""
     k = pt_pairs.shape[0]
     grad = np.zeros(3 * n_vertices)
-    for i in range(G.shape[0]):
-        pair = pt_pairs[i] if i < k else ee_pairs[i - k]
-        for v in range(4):
-            for a in range(3):
-                grad[3 * pair[v] + a] += G[i, 3 * v + a]
+    add_local_gradients(grad, G[:k], pt_pairs)
+    add_local_gradients(grad, G[k:], ee_pairs)
     return grad

@@ -5,9 +5,10 @@ to be installed.
   workqueue; never TBB merely because a TBB library is installed. TBB's workers spin
   while they wait, so once another process shares the cores every kernel launch costs
   milliseconds, and its pool can hold up the exit of a finished run.
-* Count: one thread for small problems, where a parallel launch costs more than it saves
-  (and the serial kernels are the only ones compiled); otherwise the cores that other
-  processes leave idle (the cores this process may use, less the 1-minute load average).
+* Count: one thread for small problems, where a parallel launch costs more than it saves;
+  otherwise the cores that other processes leave idle (the cores this process may use,
+  less the 1-minute load average). On one thread the kernels' serial variants run and
+  are the only ones compiled (``twin.py``), and numba's thread pool is never started.
 
 ``NUMBA_THREADING_LAYER`` and ``NUMBA_NUM_THREADS`` set by the user win, and
 ``IPCSIM_THREADS`` fixes the count.
@@ -19,6 +20,8 @@ import os
 import warnings
 
 import numba
+
+from .twin import run_parallel
 
 # Below this many vertices a scene runs on one thread (docs/benchmarks.md, "threads").
 PARALLEL_FROM_VERTICES = 5000
@@ -66,6 +69,7 @@ def use_threads(n_vertices: int) -> int:
     """Choose the layer and set the thread count for a problem of n_vertices."""
     choose_layer()
     n = threads_for(n_vertices)
-    if n != numba.get_num_threads():
+    run_parallel(n > 1)
+    if n > 1 and n != numba.get_num_threads():
         numba.set_num_threads(n)
     return n

@@ -27,9 +27,9 @@ from ..scene.spec import SUPPORTED_SCRIPTS, SceneSpec, ShapeSpec
 from . import mesh_io
 from . import legacy_scripts
 from .kinematics import rotation_axis_angle, rotation_xyz
-from .model import (GRAVITY, DirichletSet, MeshSequence, Model, NeumannSet, SolverSettings,
-                    TimeSettings)
-from .surface import boundary_triangles, unique_edges
+from .model import (GRAVITY, ConstraintSolverSettings, DirichletSet, MeshSequence, Model,
+                    NeumannSet, SolverSettings, TimeSettings)
+from .surface import boundary_triangles, tet_signed_volumes, unique_edges
 
 SEQUENCE_EXT = {"tet": "msh", "surface": "obj", "segments": "seg", "points": "pt"}
 ENERGY_NAMES = {"NH": "neo-Hookean", "FCR": "fixed corotated"}
@@ -211,9 +211,9 @@ def _build_model(scene: SceneSpec) -> Model:
                                         "(.msh, .vtk, .vtu or TetGen .node/.ele)")
     offsets = np.concatenate([[0], np.cumsum([len(p.points) for p in parts])]).astype(np.int64)
     rest, initial = _place_scene(scene, np.concatenate([p.points for p in parts]))
-    motion = _prescribed_motion(scene, parts, offsets, rest, initial, warnings)
     obstacles = [_load_obstacle(scene, len(parts) + k, ob)
                  for k, ob in enumerate(scene.mesh_obstacles)]
+    motion = _prescribed_motion(scene, parts, offsets, (rest, initial), obstacles, warnings)
     all_parts = parts + obstacles
     for ob in obstacles:  # fixed surfaces after the scene's shapes (never rescaled, §8.15)
         rest = np.concatenate([rest, ob.points])
@@ -244,7 +244,8 @@ def _build_model(scene: SceneSpec) -> Model:
         **_planes(scene), **_contact_parameters(scene, bbox_diagonal),
         dbc_sets=tuple(motion.dbc_sets), nbc_sets=tuple(motion.nbc_sets),
         mesh_sequences=tuple(motion.sequences), dbc_time_range=scene.dbc_time_range,
-        nbc_time_range=scene.nbc_time_range, terms=(), warnings=tuple(warnings),
+        nbc_time_range=scene.nbc_time_range, terms=(),
+        constraint_solver=_constraint_solver(scene, warnings), warnings=tuple(warnings),
     )
     return dataclasses.replace(model, terms=describe_terms(model, scene))
 
@@ -283,13 +284,15 @@ def _place_scene(scene: SceneSpec, placed: np.ndarray) -> tuple[np.ndarray, np.n
 @dataclass
 class _Motion:
     """What is prescribed: DBC and NBC sets, mesh sequences, the always-kinematic mask,
-    and the initial positions (a legacy script may move them)."""
+    the initial positions and velocities (a legacy script may set them; None: from the
+    shapes' initVel)."""
 
     initial: np.ndarray
     always: np.ndarray
     dbc_sets: list = field(default_factory=list)
     nbc_sets: list = field(default_factory=list)
     sequences: list = field(default_factory=list)
+    velocities: np.ndarray | None = None
 
 
 def _label(scene: SceneSpec, i: int) -> str:
@@ -297,9 +300,11 @@ def _label(scene: SceneSpec, i: int) -> str:
     return f"shape {i + 1} ({spec.path or spec.mesh_path.name})"
 
 
-def _prescribed_motion(scene, parts, offsets, rest, initial, warnings) -> _Motion:
+def _prescribed_motion(scene, parts, offsets, placed, obstacles, warnings) -> _Motion:
     """NBCs of every shape; with script ``null`` the shapes' own velocities, mesh
-    sequences and DBCs; otherwise the legacy script's sets (§5.1 step 4)."""
+    sequences and DBCs; otherwise the legacy script's motion (§5.1 step 4). ``placed`` is
+    (rest, initial) of the scene's shapes; ``obstacles`` the placed meshCO parts."""
+    rest, initial = placed
     motion = _Motion(initial=initial, always=np.zeros(len(rest), dtype=bool))
     null_script = scene.script == "null"
     for p in parts:
@@ -319,9 +324,13 @@ def _prescribed_motion(scene, parts, offsets, rest, initial, warnings) -> _Motio
             _shape_dirichlet_sets(scene, p, offsets, motion, warnings)
     else:
         _warn_ignored_shape_motion(scene, parts, warnings)
-        sets, motion.initial = legacy_scripts.script_sets(scene, parts, offsets, rest,
-                                                          motion.initial, warnings)
-        motion.dbc_sets.extend(sets)
+        obstacle_points = np.concatenate([ob.points for ob in obstacles] or [np.zeros((0, 3))])
+        scripted = legacy_scripts.script_motion(legacy_scripts.ScriptScene(
+            scene, tuple(p.kind for p in parts), offsets, rest, motion.initial,
+            obstacle_points), warnings)
+        motion.dbc_sets.extend(scripted.dbc_sets)
+        motion.nbc_sets.extend(scripted.nbc_sets)
+        motion.initial, motion.velocities = scripted.initial, scripted.velocities
     return motion
 
 
@@ -368,7 +377,7 @@ def _warn_ignored_shape_motion(scene, parts, warnings) -> None:
     if ignored:
         warnings.append(f"script {scene.script}: per-shape {', '.join(ignored)} "
                         "not applied (as in the original)")
-    if scene.script != "DCOFix" and any(p.kind != "tet" for p in parts):
+    if scene.script not in legacy_scripts.FIXES_CODIM and any(p.kind != "tet" for p in parts):
         warnings.append(f"script {scene.script}: codim shapes are kept fixed "
                         "(ipcsim does not simulate codim shapes)")
 
@@ -403,7 +412,7 @@ def _elastic_tets(scene, all_parts, offsets, rest) -> _Elastic:
     x0 = rest[tets[:, 0]]
     dm = np.stack([rest[tets[:, 1]] - x0, rest[tets[:, 2]] - x0, rest[tets[:, 3]] - x0],
                   axis=2)  # Dm = [x1 - x0, x2 - x0, x3 - x0] as columns
-    vol = np.linalg.det(dm) / 6.0  # V = det(Dm) / 6
+    vol = tet_signed_volumes(rest, tets)  # V = det(Dm) / 6
     if np.any(~(vol > 0.0)):
         bad = int(np.flatnonzero(~(vol > 0.0))[0])
         raise _scene_error(scene, all_parts[tet_shape[bad]].line,
@@ -489,6 +498,8 @@ def _initial_velocities(scene, parts, offsets, motion: _Motion, warnings) -> np.
     initVel)."""
     velocities = np.zeros((len(motion.always), 3))
     if scene.script != "null":
+        if motion.velocities is not None:  # a legacy script's (DCOBallHitWall)
+            velocities[:len(motion.velocities)] = motion.velocities
         return velocities
     scripted = motion.always.copy()
     for s in motion.dbc_sets:
@@ -563,6 +574,26 @@ def _contact_parameters(scene, l: float) -> dict:
     )
 
 
+CONSTRAINT_KINDS = {"volume": "volume", "graphics": "gap", "gapFunction": "gap",
+                    "Verschoor": "Verschoor"}
+
+
+def _constraint_solver(scene, warnings) -> ConstraintSolverSettings | None:
+    """The SQP / QP baseline's settings (None for IPC's interior point method)."""
+    if scene.constraint_solver not in ("SQP", "QP"):
+        return None
+    kind = CONSTRAINT_KINDS.get(scene.constraint_type)
+    if kind is None:
+        raise _scene_error(scene, None, f"constraint type '{scene.constraint_type}' is not "
+                                        f"implemented by ipcsim ({', '.join(CONSTRAINT_KINDS)})")
+    if scene.self_friction > 0.0 or any(p.friction > 0.0 for p in scene.planes):
+        warnings.append(f"constraintSolver {scene.constraint_solver}: friction is ignored "
+                        "(the baselines are frictionless)")
+    return ConstraintSolverSettings(scene.constraint_solver, kind,
+                                    float(scene.constraint_offset),
+                                    bool(scene.active_set_convergence))
+
+
 def _solver_settings(scene, l: float) -> SolverSettings:
     """Newton tolerances tol·l·h per step (as given with useAbsParameters) and the rest
     of the solver's settings."""
@@ -610,6 +641,11 @@ def describe_terms(model: Model, scene: SceneSpec) -> tuple[str, ...]:
                      f"({k} shape{'s' if k != 1 else ''})")
     if model.needs_damping:
         terms.append(f"damping (stiffness {model.damping_stiffness:g})")
+    if model.constraint_solver is not None and (model.needs_mesh_contact or model.n_planes):
+        cs = model.constraint_solver
+        terms.append(f"contact as constraints ({cs.method}, {scene.constraint_type} "
+                     f"c(x) >= {cs.offset:g}, OSQP; no barrier)")
+        return tuple(terms) + _bc_terms(model)
     if model.n_planes:
         terms.append(f"plane contact ({model.n_planes} plane{'s' if model.n_planes != 1 else ''})")
     if model.needs_mesh_contact:
@@ -630,6 +666,11 @@ def describe_terms(model: Model, scene: SceneSpec) -> tuple[str, ...]:
             if mu > 0:
                 parts.append(f"{'ground' if pl.kind == 'ground' else 'half-space'} {mu:g}")
         terms.append(f"friction ({', '.join(parts)})")
+    return tuple(terms) + _bc_terms(model)
+
+
+def _bc_terms(model: Model) -> tuple[str, ...]:
+    terms = []
     if model.nbc_sets:
         k = len(model.nbc_sets)
         terms.append(f"Neumann BC ({k} set{'s' if k != 1 else ''})")

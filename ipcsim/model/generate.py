@@ -12,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .surface import tet_signed_volumes
+
 # Kuhn subdivision of the unit cube: for each permutation (a, b, c) of the axes the path
 # 0 -> e_a -> e_a + e_b -> (1, 1, 1). Corners are numbered i + 2 j + 4 k.
 _AXIS_BIT = (1, 2, 4)
@@ -47,10 +49,7 @@ def box_tet_mesh(nx: int, ny: int, nz: int, size=(1.0, 1.0, 1.0),
     tets = (base[:, None, None] + corner[_KUHN][None, :, :]).reshape(-1, 4)
 
     # orient positively: swap two vertices where det[x1 - x0, x2 - x0, x3 - x0] < 0
-    x0 = points[tets[:, 0]]
-    det = np.einsum("ij,ij->i", points[tets[:, 1]] - x0,
-                    np.cross(points[tets[:, 2]] - x0, points[tets[:, 3]] - x0))
-    neg = det < 0
+    neg = tet_signed_volumes(points, tets) < 0
     tets[neg] = tets[neg][:, [0, 2, 1, 3]]
     return points, tets.astype(np.int64)
 

@@ -40,9 +40,11 @@ def rotation_axis_angle(axis, angle: float) -> np.ndarray:
     return np.eye(3) + np.sin(angle) * kx + (1.0 - np.cos(angle)) * (kx @ kx)
 
 
-def active_dirichlet_sets(model: Model, t: float):
-    """The DBC sets active during the step that starts at time t."""
-    return [s for s in model.dbc_sets if s.active(t, model.dbc_time_range)]
+def active_dirichlet_sets(model: Model, t: float, x: np.ndarray | None = None):
+    """The DBC sets active during the step that starts at time t from positions x
+    (default: the initial positions)."""
+    x = model.initial_positions if x is None else x
+    return [s for s in model.dbc_sets if s.active(t, model.dbc_time_range, x)]
 
 
 @lru_cache(maxsize=8)
@@ -58,13 +60,14 @@ def kinematic_targets(model: Model, x: np.ndarray, t_step_start: float, h: float
 
     Returns ``(mask (n,) bool, targets (n, 3))``; rows of free vertices hold x unchanged.
     For a set with centre c (fixed, or the midpoint of the set's *current* AABB) the
-    target is x' = R (x - c) + c + v h, R = Rx(wx h) Ry(wy h) Rz(wz h). A mesh-sequence
+    target is x' = R (x - c) + c + v h, R = Rx(wx h) Ry(wy h) Rz(wz h). A set with a
+    release is left out at a step whose start positions x meet it. A mesh-sequence
     shape goes to frame k = step (default round(t / h)), i.e. ``<folder>/<k>.<ext>``.
     """
     x = np.asarray(x, dtype=np.float64)
-    mask = model.kinematic_mask_at(t_step_start)
+    mask = model.kinematic_mask_at(t_step_start, x)
     targets = np.array(x, copy=True)
-    for s in active_dirichlet_sets(model, t_step_start):
+    for s in active_dirichlet_sets(model, t_step_start, x):
         if not s.moving:
             targets[s.vertices] = x[s.vertices]  # a later fixed set overrides earlier motion
             continue
@@ -89,9 +92,9 @@ def kinematic_targets(model: Model, x: np.ndarray, t_step_start: float, h: float
     return mask, targets
 
 
-def nbc_accelerations(model: Model, t: float) -> np.ndarray:
-    """(n, 3) sum of the Neumann accelerations active at time t, zero on kinematic vertices
-    (the extra potential is -h^2 m_i a . x_i, i.e. force m_i a)."""
+def nbc_accelerations(model: Model, t: float, x: np.ndarray | None = None) -> np.ndarray:
+    """(n, 3) sum of the Neumann accelerations active at time t, zero on the vertices
+    kinematic at positions x (the extra potential is -h^2 m_i a . x_i, i.e. force m_i a)."""
     acc = np.zeros((model.n_vertices, 3))
     gate = model.nbc_time_range
     any_active = False
@@ -100,5 +103,5 @@ def nbc_accelerations(model: Model, t: float) -> np.ndarray:
             acc[s.vertices] += np.asarray(s.acceleration, dtype=np.float64)  # unique vertices
             any_active = True
     if any_active:
-        acc[model.kinematic_mask_at(t)] = 0.0
+        acc[model.kinematic_mask_at(t, x)] = 0.0
     return acc

@@ -46,9 +46,32 @@ def _in_window(t: float, window: tuple[float, float]) -> bool:
 
 
 @dataclass(frozen=True, eq=False)
+class Release:
+    """A condition on the positions at the start of a step: the smallest coordinate
+    ``axis`` over ``vertices`` is above ``above``. A Dirichlet set with a release is
+    inactive (its vertices are free) at every step that starts with the condition met
+    (legacy ``dragright`` lets go of the body once it has passed every obstacle)."""
+
+    vertices: np.ndarray  # (k,) int64 vertices whose smallest coordinate is watched
+    axis: int
+    above: float
+
+    def __post_init__(self):
+        object.__setattr__(self, "vertices", np.unique(np.asarray(self.vertices, dtype=np.int64)))
+        object.__setattr__(self, "axis", int(self.axis))
+        object.__setattr__(self, "above", float(self.above))
+        _freeze(self, ("vertices",))
+
+    def met(self, x: np.ndarray) -> bool:
+        return bool(len(self.vertices)) and bool(x[self.vertices, self.axis].min() > self.above)
+
+
+@dataclass(frozen=True, eq=False)
 class DirichletSet:
     """Vertices moved kinematically while active: each step of length h,
-    x' = R (x - c) + c + v h with R = Rx(wx h) Ry(wy h) Rz(wz h)."""
+    x' = R (x - c) + c + v h with R = Rx(wx h) Ry(wy h) Rz(wz h). Active while the step
+    starts inside ``time_range`` (and the global gate, if ``gated``) and, with a
+    ``release``, while its condition is not met at the step's start positions."""
 
     vertices: np.ndarray  # (k,) int64, sorted unique global indices
     linear_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m/s, world frame
@@ -57,6 +80,7 @@ class DirichletSet:
     centre: tuple[float, float, float] | None = None  # None: midpoint of the set's current AABB
     gated: bool = False  # the scene's global DBCTimeRange applies as well
     source: str = ""  # where it came from, for messages
+    release: Release | None = None  # inactive at steps that start with it met
 
     def __post_init__(self):
         object.__setattr__(self, "vertices", np.unique(np.asarray(self.vertices, dtype=np.int64)))
@@ -71,8 +95,13 @@ class DirichletSet:
     def moving(self) -> bool:
         return any(v != 0.0 for v in self.linear_velocity + self.angular_velocity)
 
-    def active(self, t: float, gate: tuple[float, float] = (0.0, INF)) -> bool:
-        return _in_window(t, self.time_range) and (not self.gated or _in_window(t, gate))
+    def active(self, t: float, gate: tuple[float, float] = (0.0, INF),
+               x: np.ndarray | None = None) -> bool:
+        """Active during the step that starts at time t (positions x; without x a release
+        counts as not met)."""
+        if not (_in_window(t, self.time_range) and (not self.gated or _in_window(t, gate))):
+            return False
+        return self.release is None or x is None or not self.release.met(x)
 
 
 @dataclass(frozen=True, eq=False)
@@ -140,6 +169,23 @@ class SolverSettings:
     def newton_tol(self, step: int) -> float:
         """Absolute tolerance on ‖p‖∞ of step ``step`` (0-based)."""
         return self.newton_tolerances[min(step, len(self.newton_tolerances) - 1)]
+
+
+@dataclass(frozen=True)
+class ConstraintSolverSettings:
+    """The SQP and QP baselines (``constraintSolver SQP|QP``): contact as constraints
+    c(x) ≥ offset linearised in a sequence of QPs (SQP) or in one per step (QP), instead of
+    IPC's barrier. ``constraint_type`` "volume", "gap" (the original's graphics /
+    gapFunction) or "Verschoor"."""
+
+    method: str  # "SQP" | "QP"
+    constraint_type: str
+    offset: float  # in the units of c (m for gap and Verschoor, m³ for volume)
+    active_set_convergence: bool = False  # iterate until the step adds no constraint
+    max_iterations: int = 100  # QPs per step (SQP iterations, QP active-set rounds)
+    qp_eps_rel: float = 1e-3  # OSQP's relative tolerance (the original's setting)
+    qp_max_iterations: int = 4000  # OSQP's ADMM iterations
+    blow_up_factor: float = 100.0  # a vertex moving more than this × the scene's extent
 
 
 _ARRAY_FIELDS = (
@@ -218,6 +264,9 @@ class Model:
     terms: tuple[str, ...]
     warnings: tuple[str, ...] = ()
 
+    # contact as constraints of the SQP / QP baselines (None: IPC's barrier)
+    constraint_solver: ConstraintSolverSettings | None = None
+
     def __post_init__(self):
         _freeze(self, _ARRAY_FIELDS)
 
@@ -287,7 +336,10 @@ class Model:
     @property
     def needs_friction(self) -> bool:
         """Some contact with mu > 0: a plane with friction, or mesh contact (self contact
-        or meshCO obstacles) with selfFric, which every mesh contact uses."""
+        or meshCO obstacles) with selfFric, which every mesh contact uses. Never with the
+        SQP / QP baselines (frictionless)."""
+        if self.constraint_solver is not None:
+            return False
         planes = bool(np.any(self.plane_friction > 0.0))
         return planes or (self.self_friction > 0.0 and self.needs_mesh_contact)
 
@@ -336,10 +388,12 @@ class Model:
             "steps": self.n_steps,
         }
 
-    def kinematic_mask_at(self, t: float) -> np.ndarray:
-        """(n,) bool: vertices kinematic during the step starting at time t."""
+    def kinematic_mask_at(self, t: float, x: np.ndarray | None = None) -> np.ndarray:
+        """(n,) bool: vertices kinematic during the step starting at time t (from
+        positions x: sets with a release depend on them; without x, the initial ones)."""
         mask = np.array(self.always_kinematic, copy=True)
+        x = self.initial_positions if x is None else x
         for s in self.dbc_sets:
-            if s.active(t, self.dbc_time_range):
+            if s.active(t, self.dbc_time_range, x):
                 mask[s.vertices] = True
         return mask

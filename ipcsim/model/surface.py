@@ -92,18 +92,21 @@ def edge_use_counts(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def enclosed_volume(points: np.ndarray, triangles: np.ndarray) -> float:
     """Volume enclosed by a closed, outward-oriented triangle surface (divergence theorem):
     V = (1/6) sum_f x0 . (x1 x x2)."""
-    p = np.asarray(points, dtype=np.float64)
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
     if len(t) == 0:
         return 0.0
-    x0, x1, x2 = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
-    return float(np.einsum("ij,ij->i", x0, np.cross(x1, x2)).sum() / 6.0)
+    # x0 . (x1 x x2) / 6 is the signed volume of the tet (origin, x0, x1, x2)
+    apex = np.vstack([p, np.zeros((1, 3))])
+    tets = np.column_stack([np.full(len(t), len(p), dtype=np.int64), t])
+    return float(tet_signed_volumes(apex, tets).sum())
 
 
 def tet_signed_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
-    """Signed volumes (m,) of tets: V = det[x1 - x0, x2 - x0, x3 - x0] / 6."""
-    p = np.asarray(points, dtype=np.float64)
-    t = np.asarray(tets, dtype=np.int64).reshape(-1, 4)
-    x0 = p[t[:, 0]]
-    e1, e2, e3 = p[t[:, 1]] - x0, p[t[:, 2]] - x0, p[t[:, 3]] - x0
-    return np.einsum("ij,ij->i", e1, np.cross(e2, e3)) / 6.0  # e1 . (e2 x e3) = det
+    """Signed volumes (m,) of tets: V = det[x1 - x0, x2 - x0, x3 - x0] / 6
+    (``kernels.linalg.tet_signed_volumes``, for any array-like input)."""
+    from ..kernels.linalg import tet_signed_volumes as kernel  # numba: imported on use
+
+    p = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    t = np.ascontiguousarray(tets, dtype=np.int64).reshape(-1, 4)
+    return kernel(p, t)

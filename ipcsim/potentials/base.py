@@ -30,16 +30,24 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class Triplets:
-    """A sparse matrix as COO triplets; duplicates are summed by ``tocsr``."""
+    """A sparse matrix as COO triplets, ``scale`` times (rows, cols, vals); duplicates
+    are summed by ``tocsr``. ``scaled(w)`` changes the factor only, so weighting a large
+    Hessian copies nothing."""
 
     rows: np.ndarray
     cols: np.ndarray
     vals: np.ndarray
+    scale: float = 1.0
 
     @staticmethod
     def empty() -> "Triplets":
         z = np.zeros(0, dtype=np.int64)
         return Triplets(z, z, np.zeros(0))
+
+    @property
+    def values(self) -> np.ndarray:
+        """The entries' values, the scale applied."""
+        return self.vals if self.scale == 1.0 else self.scale * self.vals
 
     @staticmethod
     def concat(parts: list["Triplets"]) -> "Triplets":
@@ -49,15 +57,15 @@ class Triplets:
         return Triplets(
             np.concatenate([p.rows for p in parts]),
             np.concatenate([p.cols for p in parts]),
-            np.concatenate([p.vals for p in parts]),
+            np.concatenate([p.values for p in parts]),
         )
 
     def scaled(self, w: float) -> "Triplets":
-        """The same pattern with every value times w."""
-        return self if w == 1.0 else Triplets(self.rows, self.cols, w * self.vals)
+        """The same triplets, w times."""
+        return self if w == 1.0 else Triplets(self.rows, self.cols, self.vals, self.scale * w)
 
     def tocsr(self, n_dofs: int) -> sp.csr_matrix:
-        return sp.csr_matrix((self.vals, (self.rows, self.cols)), shape=(n_dofs, n_dofs))
+        return sp.csr_matrix((self.values, (self.rows, self.cols)), shape=(n_dofs, n_dofs))
 
 
 @dataclass(frozen=True, eq=False)

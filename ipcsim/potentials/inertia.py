@@ -22,6 +22,7 @@ class Inertia:
         mass = np.asarray(self.mass, dtype=float)
         object.__setattr__(self, "mass", mass)
         dofs = np.arange(3 * len(mass), dtype=np.int64)
+        dofs.flags.writeable = False  # read-only as elasticity's pattern: one kernel variant
         object.__setattr__(self, "_hessian", Triplets(dofs, dofs, np.repeat(mass, 3)))
 
     def value(self, x, ctx: StepContext):

@@ -1,6 +1,7 @@
 """Contact between mesh surfaces: Σ m·b(d², d̂²) over the point–triangle and edge–edge
 pairs of ``ctx.collisions``, at unit stiffness (the incremental potential multiplies barrier
-terms by κ).
+terms by κ). A collision set with distances is the one found at the x the term is evaluated
+at (the objective keeps it so); when they show no pair within d̂ the term is zero.
 
 Each pair enters with its closest-feature distance and, for edge–edge pairs, the mollifier
 m of nearly parallel edges (ε_x from rest positions). Which pairs: at a Newton iterate, the
@@ -12,6 +13,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import ClassVar
+
+import numpy as np
 
 from ..kernels import contact_barrier as kb
 from .base import StepContext, Triplets
@@ -29,13 +32,19 @@ class MeshContact:
 
     def value(self, x, ctx: StepContext):
         c = ctx.collisions
+        if not c.may_be_active(self.dhat):
+            return 0.0
         return kb.barrier_value(x, c.pt, c.ee, c.ee_eps_x, self.s_hat, 1.0)
 
     def gradient(self, x, ctx: StepContext):
         c = ctx.collisions
+        if not c.may_be_active(self.dhat):  # also: a kernel not used is not compiled
+            return np.zeros(x.size)
         return kb.barrier_gradient(x, c.pt, c.ee, c.ee_eps_x, self.s_hat, 1.0)
 
     def hessian(self, x, ctx: StepContext):
         c = ctx.collisions
+        if not c.may_be_active(self.dhat):
+            return Triplets.empty()
         return Triplets(*kb.barrier_hessian_triplets(x, c.pt, c.ee, c.ee_eps_x, self.s_hat,
                                                      1.0, True))

@@ -138,7 +138,10 @@ class StepObjective:
         return self.potential.resolved(x, p, self.ctx)
 
     def nonfinite_terms(self, x: np.ndarray, p: np.ndarray | None = None) -> list[str]:
-        return self.potential.nonfinite_terms(x, self.ctx, p)
+        """The terms that are not finite at x (or whose bound along p is not), each
+        evaluated with the collision set at x."""
+        ctx = dataclasses.replace(self.ctx, collisions=self.collisions(x))
+        return self.potential.nonfinite_terms(x, ctx, p)
 
     # -- refreshes ---------------------------------------------------------------------------
     def collisions(self, x: np.ndarray) -> Collisions | None:

@@ -4,7 +4,9 @@
 in the order they are summed: inertia, body forces, elasticity, damping, contact with
 planes and between meshes, friction. Contact is IPC's barrier (scaled by κ, its steps
 bounded by CCD) unless the scene asks for the penalty baseline
-(``contact.formulation = "penalty"``): that choice is made here and nowhere else.
+(``contact.formulation = "penalty"``), and absent with the SQP / QP baselines
+(``constraintSolver SQP|QP``, contact as constraints): that choice is made here and
+nowhere else.
 """
 
 from __future__ import annotations
@@ -47,7 +49,10 @@ def elastic_term(model) -> Elasticity | None:
 
 
 def contact_terms(model) -> list[WeightedTerm]:
-    """Plane and mesh contact, as barriers (weight κ) or as the penalty baseline."""
+    """Plane and mesh contact, as barriers (weight κ) or as the penalty baseline; none for
+    the SQP / QP baselines, whose contact is a set of constraints (ipcsim.baselines)."""
+    if model.constraint_solver is not None:
+        return []
     planes = Planes.from_model(model) if model.needs_plane_contact else None
     mesh = model.needs_mesh_contact
     if model.contact_formulation == "penalty":

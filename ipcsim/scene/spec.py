@@ -24,6 +24,13 @@ ENERGIES = ("NH", "FCR")
 INTEGRATORS = ("BE", "NM")
 # IPC's barrier, or the quadratic penalty baseline of benchmarks/ (no feasibility filter)
 CONTACT_FORMULATIONS = ("barrier", "penalty")
+# ``constraintSolver``: IPC's interior point (barrier) method, or the SQP / QP baselines
+CONSTRAINT_SOLVERS = ("interiorPoint", "SQP", "QP")
+# ``constraintType`` of the SQP / QP baselines that ipcsim implements (graphics and
+# gapFunction are one constraint, the original's two names for it)
+CONSTRAINT_TYPES = ("volume", "graphics", "gapFunction", "Verschoor")
+# the original's other constraint types, refused by name
+UNSUPPORTED_CONSTRAINT_TYPES = ("nonsmoothNewmark", "CMR", "STIV")
 
 # Legacy hard-coded scenarios of the original program that ipcsim implements.
 SUPPORTED_SCRIPTS = (
@@ -35,6 +42,15 @@ SUPPORTED_SCRIPTS = (
     "twist",
     "fixLowerHalf",
     "pushRightMost1",
+    "hangLeft",
+    "stretchAndPause",
+    "dragright",
+    "DCOVerschoorRoller",
+    "DCOBallHitWall",
+    "DCOSqueezeOut",
+    "DCOSegBedSquash",
+    "DCOSquash6",
+    "utopiaComparison",
 )
 
 # Mesh kind by file extension; "tet" shapes are simulated, the others kinematic.
@@ -170,7 +186,10 @@ class SceneSpec:
     newton_tol: tuple[float, ...] = (1e-2,)
     kappa_min_multiplier: float = 1e11
     use_abs_parameters: bool = False
-    constraint_solver: str = "interiorPoint"
+    constraint_solver: str = "interiorPoint"  # or "SQP" / "QP" (baselines)
+    constraint_type: str = "volume"  # SQP / QP: the collision constraint function
+    constraint_offset: float = 0.0  # SQP / QP: c(x) >= offset (units of c)
+    active_set_convergence: bool = False  # SQP / QP: iterate until no constraint is added
     contact_formulation: str = "barrier"  # beyond the original: "penalty" for baselines
     penalty_stiffness: float = 0.0  # N/m per pair, with the penalty formulation
     linear_solver: str | None = None  # None: the fastest installed

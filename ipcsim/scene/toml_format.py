@@ -10,7 +10,8 @@ Schema (docs/scene-format.md is the user's reference)::
     [contact]     self_collision, self_friction, kappa ("adaptive" or a number),
                   kappa_min_multiplier, dhat, dhat_start, dhat_abs, epsv, epsv_abs, dtol,
                   friction_iterations, use_abs_parameters
-    [solver]      newton_tol, constraint_solver, linear_solver ("auto" or a name)
+    [solver]      newton_tol, constraint_solver ("interiorPoint", "SQP", "QP"), constraint_type,
+                  constraint_offset, active_set_convergence, linear_solver ("auto" or a name)
     [output]      append_str, playback_speed
     [[shapes]]    path, kind, translation, rotation_deg, scale, material = {...},
                   linear_velocity, angular_velocity_deg, init_velocity = {...},
@@ -49,7 +50,7 @@ from .spec import (
     SceneSpec,
     ShapeSpec,
 )
-from .txt_format import SOLVER_NAMES, UNSUPPORTED_SOLVERS, suggest, unit_normal
+from .txt_format import SOLVER_NAMES, suggest, unit_normal
 from .validate import LINEAR_SOLVERS, line_of, validate_scene
 
 __all__ = ["parse_toml", "parse_toml_data", "format_toml", "scene_to_dict", "locate_keys"]
@@ -312,9 +313,6 @@ class _Reader:
             return self.choice(v, key, CONTACT_FORMULATIONS)
         if kind == "solver":
             s = self.string(v, key)
-            if s in UNSUPPORTED_SOLVERS:
-                self.fail(key, f"{key}: constraint solver '{_q(s)}' is not implemented by ipcsim; "
-                               "use \"interiorPoint\"")
             return SOLVER_NAMES[self.choice(v, key, tuple(SOLVER_NAMES))]
         if kind == "linear_solver":
             s = self.string(v, key)
@@ -535,6 +533,9 @@ _SIMPLE: dict[str, dict[str, tuple[str, str]]] = {
     "solver": {
         "newton_tol": ("newton_tol", "tol"),
         "constraint_solver": ("constraint_solver", "solver"),
+        "constraint_type": ("constraint_type", "str"),
+        "constraint_offset": ("constraint_offset", "float"),
+        "active_set_convergence": ("active_set_convergence", "bool"),
         "linear_solver": ("linear_solver", "linear_solver"),
     },
     "output": {
@@ -589,6 +590,9 @@ def scene_to_dict(spec: SceneSpec, folder: Path, name_path=None) -> dict:
         "contact": _contact_table(s),
         "solver": {"newton_tol": [float(x) for x in s.newton_tol],
                    "constraint_solver": s.constraint_solver,
+                   "constraint_type": s.constraint_type,
+                   "constraint_offset": float(s.constraint_offset),
+                   "active_set_convergence": bool(s.active_set_convergence),
                    "linear_solver": s.linear_solver or "auto"},
         "output": {"append_str": s.append_str, "playback_speed": float(s.playback_speed)},
     }

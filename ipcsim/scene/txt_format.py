@@ -9,8 +9,9 @@ The format (docs/scene-format.md has the user's reference):
 * ``tol N`` and ``tuning N`` read N numbers from the *following* lines;
 * ``shapes <word> N`` reads the next N non-blank, non-comment lines as shape lines, where
   a ``\\`` token continues the line on the next physical line (also inside a comment);
-* ``section <solver> ...`` blocks are parsed only for the selected solver (always the
-  interior-point method in ipcsim), else skipped up to ``section end``.
+* ``section <solver> ...`` blocks are parsed only when they name the solver selected so
+  far (``constraintSolver`` before the block, interiorPoint by default), else skipped up to
+  ``section end``, as the original does.
 
 Where the original silently does something surprising (a non-numeric token read as 0,
 values on the ``tol`` line ignored, unknown keywords skipped) this reader raises a
@@ -30,6 +31,8 @@ from pathlib import Path
 from ..errors import SceneError, excerpt as _q
 from . import paths
 from .spec import (
+    CONSTRAINT_TYPES,
+    UNSUPPORTED_CONSTRAINT_TYPES,
     ENERGIES,
     INF,
     MESH_KINDS,
@@ -67,8 +70,8 @@ _TUNING_KEYS = ("contact.kappa", "contact.dhat_start", "contact.dhat", "contact.
 # A shapeMatrix can multiply a mesh; beyond this the scene is surely a typo.
 _MAX_MATRIX_COPIES = 100_000
 
-SOLVER_NAMES = {"interiorPoint": "interiorPoint", "IP": "interiorPoint"}
-UNSUPPORTED_SOLVERS = ("QP", "SQP")
+SOLVER_NAMES = {"interiorPoint": "interiorPoint", "IP": "interiorPoint", "SQP": "SQP",
+                "QP": "QP"}
 
 USAGE = {
     "shapes": "shapes input <N>, then N shape lines",
@@ -104,7 +107,11 @@ USAGE = {
     "DBCTimeRange": "DBCTimeRange <t0> [<t1>]",
     "NBCTimeRange": "NBCTimeRange <t0> [<t1>]",
     "warmStart": "warmStart <0..5>",
-    "constraintSolver": "constraintSolver interiorPoint",
+    "constraintSolver": "constraintSolver interiorPoint|IP|SQP|QP",
+    "constraintType": "constraintType volume|graphics|gapFunction|Verschoor",
+    "constraintOffset": "constraintOffset <c>",
+    "useActiveSetConvergence": "useActiveSetConvergence",
+    "noActiveSetConvergence": "noActiveSetConvergence",
     "section": "section <solver> [<solver> ...] ... section end",
     "size": "size <s>",
     "rotateModel": "rotateModel <ax> <ay> <az> <degrees>",
@@ -125,9 +132,7 @@ SHAPE_EXTRAS = ("material", "linearVelocity", "angularVelocity", "DBC", "NBC", "
 # Accepted, recorded in SceneSpec.ignored, no effect: viewer-only, QP/SQP-only, and the
 # CCD choice (ipcsim has its own continuous collision detection).
 IGNORED_KEYWORDS = ("view", "zoom", "cameraTracking", "disableCout", "QPSolver",
-                    "constraintType", "constraintOffset", "useActiveSetConvergence",
-                    "noActiveSetConvergence", "CCDMethod", "ccdMethod", "CCDTolerance",
-                    "ccdTolerance")
+                    "CCDMethod", "ccdMethod", "CCDTolerance", "ccdTolerance")
 # Keywords found in the original's own scripts that the original does not know either.
 NOOP_KEYWORDS = ("timeStepper", "inexactSolve", "resolution")
 
@@ -810,26 +815,47 @@ class _TxtReader:
     def kw_constraintSolver(self, a: _Cursor) -> None:
         name = a.word("a solver name")
         a.done()
-        if name in UNSUPPORTED_SOLVERS:
-            a.fail(f"constraint solver '{_q(name)}' is not implemented by ipcsim; use "
-                   "interiorPoint (the IPC barrier method)", a.line)
         if name not in SOLVER_NAMES:
-            a.fail(f"unknown constraint solver '{_q(name)}'"
-                   f"{suggest(name, (*SOLVER_NAMES, *UNSUPPORTED_SOLVERS))} "
-                   "(ipcsim implements interiorPoint, alias IP)", a.line)
+            a.fail(f"unknown constraint solver '{_q(name)}'{suggest(name, SOLVER_NAMES)} "
+                   "(interiorPoint, alias IP: the IPC barrier method; SQP, QP: the "
+                   "comparison baselines)", a.line)
         self.set("solver.constraint_solver", "constraint_solver", SOLVER_NAMES[name], a.line)
+
+    def kw_constraintType(self, a: _Cursor) -> None:
+        name = a.word("a constraint type")
+        a.done()
+        if name in UNSUPPORTED_CONSTRAINT_TYPES:
+            a.fail(f"constraint type '{name}' is not implemented by ipcsim (it implements "
+                   f"{', '.join(CONSTRAINT_TYPES)})", a.line)
+        if name not in CONSTRAINT_TYPES:
+            a.fail(f"unknown constraint type '{name}'"
+                   f"{suggest(name, (*CONSTRAINT_TYPES, *UNSUPPORTED_CONSTRAINT_TYPES))}",
+                   a.line)
+        self.set("solver.constraint_type", "constraint_type", name, a.line)
+
+    def kw_constraintOffset(self, a: _Cursor) -> None:
+        self.set("solver.constraint_offset", "constraint_offset", a.number("offset"), a.line)
+        a.done()
+
+    def kw_useActiveSetConvergence(self, a: _Cursor) -> None:
+        a.done()
+        self.set("solver.active_set_convergence", "active_set_convergence", True, a.line)
+
+    def kw_noActiveSetConvergence(self, a: _Cursor) -> None:
+        a.done()
+        self.set("solver.active_set_convergence", "active_set_convergence", False, a.line)
 
     def kw_section(self, a: _Cursor) -> None:
         names = [t for t, _ in a.toks]
         if names[:1] == ["end"]:
             return  # `section end` met while parsing: nothing to close
         for name in names:
-            if name not in SOLVER_NAMES and name not in UNSUPPORTED_SOLVERS:
+            if name not in SOLVER_NAMES:
                 a.fail(f"`section` names solvers, got '{_q(name)}'"
-                       f"{suggest(name, (*SOLVER_NAMES, *UNSUPPORTED_SOLVERS, 'end'))}",
-                       a.line)
-        if any(name in SOLVER_NAMES for name in names):
-            return  # the selected solver (always interiorPoint) is listed: parse normally
+                       f"{suggest(name, (*SOLVER_NAMES, 'end'))}", a.line)
+        selected = self.values.get("constraint_solver", "interiorPoint")
+        if any(SOLVER_NAMES[name] == selected for name in names):
+            return  # the solver selected so far is listed: parse normally (as the original)
         # otherwise skip every line up to and including `section end` (a bare `section`
         # skips too)
         while True:
@@ -964,6 +990,15 @@ def _token_path(target: Path, folder: Path, what: str, out) -> str:
     return rel
 
 
+def _constraint_lines(s: SceneSpec) -> list[str]:
+    """The SQP / QP settings, where they differ from the defaults."""
+    if (s.constraint_type, s.constraint_offset, s.active_set_convergence) == ("volume", 0.0,
+                                                                              False):
+        return []
+    return [f"constraintType {s.constraint_type}", f"constraintOffset {_f(s.constraint_offset)}",
+            *(["useActiveSetConvergence"] if s.active_set_convergence else [])]
+
+
 def format_txt(spec: SceneSpec, path=None) -> str:
     """The scene as an IPC script. Paths are written relative to ``path``'s folder (the
     file being written; default: the current directory). Defaults are written out too, so
@@ -1024,6 +1059,7 @@ def _contact_lines(s: SceneSpec) -> list[str]:
     if s.use_abs_parameters:
         L.append("useAbsParameters")
     L.append(f"constraintSolver {s.constraint_solver}")
+    L.extend(_constraint_lines(s))
     if s.linear_solver is not None:
         L.append(f"linearSolver {_SOLVER_SPELLING.get(s.linear_solver, s.linear_solver)}")
     return L

@@ -17,7 +17,8 @@ import re
 from collections.abc import Mapping
 
 from ..errors import SceneError, excerpt as _q
-from .spec import ENERGIES, INTEGRATORS, SUPPORTED_SCRIPTS, SceneSpec
+from .spec import (CONSTRAINT_SOLVERS, CONSTRAINT_TYPES, ENERGIES, INTEGRATORS,
+                   SUPPORTED_SCRIPTS, UNSUPPORTED_CONSTRAINT_TYPES, SceneSpec)
 
 __all__ = ["validate_scene", "LINEAR_SOLVERS", "MAX_STEPS", "text_name"]
 
@@ -51,6 +52,8 @@ _TEXT_NAMES = {
     "contact.kappa_min_multiplier": "`kappaMinMultiplier`",
     "solver.newton_tol": "`tol`",
     "solver.constraint_solver": "`constraintSolver`",
+    "solver.constraint_type": "`constraintType`",
+    "solver.constraint_offset": "`constraintOffset`",
     "solver.linear_solver": "`linearSolver`",
     "scene.dbc_time_range": "`DBCTimeRange`",
     "scene.nbc_time_range": "`NBCTimeRange`",
@@ -309,9 +312,16 @@ def _check_solver(c: _Checker, s: SceneSpec) -> None:
         c.fail("solver.newton_tol", "needs at least one value")
     for x in s.newton_tol:
         c.number("solver.newton_tol", x, positive=True)
-    if s.constraint_solver != "interiorPoint":
-        c.fail("solver.constraint_solver", f"{_q(repr(s.constraint_solver))} is not "
-                                           "implemented by ipcsim (only interiorPoint)")
+    if s.constraint_solver not in CONSTRAINT_SOLVERS:
+        c.fail("solver.constraint_solver", f"must be one of {', '.join(CONSTRAINT_SOLVERS)} "
+                                           f"(got {_q(repr(s.constraint_solver))})")
+    if s.constraint_type in UNSUPPORTED_CONSTRAINT_TYPES:
+        c.fail("solver.constraint_type", f"{_q(repr(s.constraint_type))} is not implemented "
+                                         f"by ipcsim (it implements {', '.join(CONSTRAINT_TYPES)})")
+    if s.constraint_type not in CONSTRAINT_TYPES:
+        c.fail("solver.constraint_type", f"must be one of {', '.join(CONSTRAINT_TYPES)} "
+                                         f"(got {_q(repr(s.constraint_type))})")
+    c.number("solver.constraint_offset", s.constraint_offset, nonneg=True)
     if s.linear_solver is not None and s.linear_solver not in LINEAR_SOLVERS:
         c.fail("solver.linear_solver", f"must be one of {', '.join(LINEAR_SOLVERS)} "
                                        f"(got {_q(repr(s.linear_solver))})")

@@ -4,8 +4,8 @@ Kinematic DOFs are eliminated by mapping triplet indices to free-DOF numbers; no
 edits a CSR matrix in place. Terms whose sparsity pattern never changes (inertia,
 elasticity, damping: ``constant_pattern = True``) return the same index arrays on every
 call, so the map from each of their triplets to a slot of the CSC matrix is computed once
-per kinematic mask, and each iteration only scatter-adds values (a linear pass instead of
-a sort of millions of triplets). Triplets of terms whose pattern changes (contact,
+per kinematic mask, and each iteration only scatter-adds values, times the term's weight
+(a linear pass instead of a sort of millions of triplets). Triplets of terms whose pattern changes (contact,
 friction) are merged into that matrix by one kernel (``kernels/assembly.py``).
 
 ``assemble`` also returns the coupling H_fk p_k, the free rows' product with the
@@ -17,34 +17,31 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from ..kernels.assembly import add_triplets
-from ..kernels.scatter import scatter_add
+from ..kernels import assembly as ka
 
 
 class _StaticPattern:
-    """CSC structure of the constant-pattern terms and each triplet's slot in it."""
+    """CSC structure of the constant-pattern terms and each triplet's slot in it.
+
+    Built without sorting all triplets: the free rows of each free column are bucketed,
+    sorted and made unique column by column, and each triplet finds its slot by bisection;
+    what is kept is one int32 slot per triplet (−1 for kinematic rows or columns)."""
 
     def __init__(self, parts, free_index, n_free):
         self.refs = [(p.rows, p.cols) for p in parts]
         self.free_index = free_index
-        keeps, rows, cols = [], [], []
-        self.coupling = []  # per part: (kept triplets, free row, kinematic column DOF)
+        counts = np.zeros(n_free + 1, dtype=np.int64)
         for p in parts:
-            rf, cf = free_index[p.rows], free_index[p.cols]
-            ff = np.flatnonzero((rf >= 0) & (cf >= 0))
-            keeps.append(ff)
-            rows.append(rf[ff])
-            cols.append(cf[ff])
-            fk = np.flatnonzero((rf >= 0) & (cf < 0))
-            self.coupling.append((fk, rf[fk], p.cols[fk]))
-        rows, cols = np.concatenate(rows), np.concatenate(cols)
-        key = cols * np.int64(n_free) + rows  # column-major order = CSC order
-        unique, slots = np.unique(key, return_inverse=True)
-        self.indices = (unique % n_free).astype(np.int32)
-        self.indptr = np.searchsorted(unique // n_free, np.arange(n_free + 1)).astype(np.int32)
-        bounds = np.cumsum([0] + [len(k) for k in keeps])
-        self.parts = [(keeps[i], slots[bounds[i]:bounds[i + 1]].astype(np.int64))
-                      for i in range(len(parts))]
+            ka.count_free_columns(p.rows, p.cols, free_index, counts)
+        start = np.cumsum(counts)
+        bucket = np.empty(int(start[-1]), dtype=np.int32)
+        fill = start[:-1].copy()
+        for p in parts:
+            ka.bucket_rows(p.rows, p.cols, free_index, fill, bucket)
+        self.indptr, self.indices = ka.unique_column_rows(start, bucket)
+        del bucket
+        self.slots = [ka.csc_slots(p.rows, p.cols, free_index, self.indptr, self.indices)
+                      for p in parts]
         self.n_free = n_free
 
     def matches(self, parts, free_index) -> bool:
@@ -59,22 +56,20 @@ class Assembler:
     def assemble(self, static_parts, dynamic_parts, free_index, n_free, p):
         """(A over free DOFs as CSC, coupling H_fk p_k over free DOFs)."""
         if self._pattern is None or not self._pattern.matches(static_parts, free_index):
+            self._pattern = None  # let the old pattern go before the new one is built
             self._pattern = _StaticPattern(static_parts, free_index, n_free)
         pat = self._pattern
         data = np.zeros(len(pat.indices))
         coupling = np.zeros(n_free)
-        for part, (keep, slots), (fk, fk_rows, fk_cols) in zip(static_parts, pat.parts,
-                                                               pat.coupling):
-            scatter_add(data, slots, part.vals, keep)
-            if len(fk):
-                coupling += np.bincount(fk_rows, weights=part.vals[fk] * p[fk_cols],
-                                        minlength=n_free)
+        for part, slots in zip(static_parts, pat.slots):
+            ka.scatter_into_pattern(data, slots, part.vals, part.scale, part.rows, part.cols,
+                                    free_index, p, coupling)
         if dynamic_parts:
             rows = np.concatenate([d.rows for d in dynamic_parts])
             cols = np.concatenate([d.cols for d in dynamic_parts])
-            vals = np.concatenate([d.vals for d in dynamic_parts])
-            indptr, indices, data = add_triplets(pat.indptr, pat.indices, data, rows, cols,
-                                                 vals, free_index, p, coupling)
+            vals = np.concatenate([d.values for d in dynamic_parts])
+            indptr, indices, data = ka.add_triplets(pat.indptr, pat.indices, data, rows, cols,
+                                                    vals, free_index, p, coupling)
         else:
             indptr, indices = pat.indptr, pat.indices
         return sp.csc_matrix((data, indices, indptr), shape=(n_free, n_free)), coupling

@@ -148,7 +148,13 @@ class ScipySolver:
                            options={"SymmetricMode": True})
         except RuntimeError as exc:  # "Factor is exactly singular"
             raise SolverError(f"LU factorisation failed: {exc}") from None
+        self._lu = lu
         return _check(lu.solve(np.asarray(b, dtype=np.float64)))
+
+    def solve_again(self, b: np.ndarray) -> np.ndarray:
+        """A x = b for the matrix of the last ``solve``, with its factor."""
+        return _check(self._lu.solve(np.asarray(b, dtype=np.float64))) if len(b) \
+            else np.zeros(0)
 
 
 class _Factorising:
@@ -166,6 +172,10 @@ class _Factorising:
             self._analyse()
         self._factorise()
         return self._backsolve(b)
+
+    def solve_again(self, b: np.ndarray) -> np.ndarray:
+        """A x = b for the matrix of the last ``solve``, with its factor."""
+        return self._backsolve(b) if len(b) else np.zeros(0)
 
 
 class CholmodSolver(_Factorising):

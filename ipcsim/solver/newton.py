@@ -60,6 +60,7 @@ class _Progress:
     """The running record of one ``solve``."""
 
     prescribed: float  # ‖target − x‖∞ over kinematic DOFs at the start
+    tol: float = 0.0  # the ‖p‖∞ tolerance
     iterations: int = 0
     min_alpha: float = 1.0
     kinematic_complete: bool = True
@@ -93,7 +94,8 @@ class NewtonSolver:
         x = x0.copy()
         kin_dofs = np.repeat(objective.kinematic, 3)
         target = objective.target.reshape(-1)
-        run = _Progress(np.abs(target[kin_dofs] - x.reshape(-1)[kin_dofs]).max(initial=0.0))
+        run = _Progress(np.abs(target[kin_dofs] - x.reshape(-1)[kin_dofs]).max(initial=0.0),
+                        tol)
         run.kinematic_complete = run.prescribed == 0.0
         energy = None  # E(x), known after a line search
         kappa = None
@@ -169,6 +171,13 @@ class NewtonSolver:
                 raise
         if not np.isfinite(p).all():
             raise NonFiniteError("Newton direction", objective.nonfinite_terms(x), it)
+        if remaining > 0.0 and n_free and np.abs(p[free_dofs]).max() < run.tol:
+            # the free DOFs are converged, the prescribed motion is not: follow it with
+            # the free DOFs' linear response alone, H_ff p_f = −H_fk p_k. The free part's
+            # own residual (below tol) would otherwise move them far more than the small
+            # rest of the motion does, and CCD would cut every step to a part of it.
+            with self.timer("solve"):
+                p[free_dofs] = self.linear_solver.solve_again(-coupling)
         return p, remaining
 
     def _line_search(self, objective, x, p, remaining, energy, run: _Progress, it: int):

@@ -22,7 +22,8 @@ def test_the_layer_is_never_tbb_by_default():
 def test_a_fresh_process_runs_a_parallel_kernel_on_the_chosen_layer():
     env = {k: v for k, v in os.environ.items() if k != "NUMBA_THREADING_LAYER"}
     code = ("import numpy as np, numba\n"
-            "from ipcsim.kernels import broad_phase as bp\n"
+            "from ipcsim.kernels import broad_phase as bp, twin\n"
+            "twin.run_parallel(True)\n"
             "x = np.random.default_rng(0).random((50, 3))\n"
             "bp.primitive_boxes(x, x, np.arange(50).reshape(-1, 1), 0.1)\n"
             "print(numba.threading_layer())\n")
@@ -44,3 +45,31 @@ def test_ipcsim_threads_fixes_the_count(monkeypatch):
     monkeypatch.setenv("IPCSIM_THREADS", "many")
     with pytest.warns(UserWarning, match="not a positive integer"):
         threads.threads_for(10)
+
+
+def test_both_variants_of_a_kernel_give_the_same_bits():
+    """The serial and the parallel variant are one source; per-item results are written
+    to their own slots and summed in order, so both give bitwise equal answers."""
+    import numpy as np
+
+    from ipcsim.kernels import contact_barrier as cb
+    from ipcsim.kernels import twin
+
+    rng = np.random.default_rng(5)
+    x = rng.random((400, 3))
+    pt = rng.permutation(400).reshape(-1, 4)[:60].astype(np.int64)
+    ee = rng.permutation(400).reshape(-1, 4)[:40].astype(np.int64)
+    eps = np.full(len(ee), 1e-3)
+    results = []
+    for parallel in (False, True):
+        twin.run_parallel(parallel)
+        try:
+            results.append((cb.barrier_value(x, pt, ee, eps, 0.09, 1.0),
+                            cb.barrier_gradient(x, pt, ee, eps, 0.09, 1.0),
+                            cb.barrier_hessian_triplets(x, pt, ee, eps, 0.09, 1.0, True)[2]))
+        finally:
+            twin.run_parallel(False)
+    (v0, g0, h0), (v1, g1, h1) = results
+    assert v0 == v1 and v0 > 0.0
+    np.testing.assert_array_equal(g0, g1)
+    np.testing.assert_array_equal(h0, h1)

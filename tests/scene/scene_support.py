@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from examples import example_scripts  # noqa: F401  (re-exported for the scene tests)
+from examples import example_scripts, extra_scripts_with_meshes  # noqa: F401  (re-exported)
 
 MESHES = ("meshes/cube.msh", "meshes/tri.obj", "meshes/edge.seg", "meshes/cloud.pt",
           "meshes/plane.obj", "meshes/fallback.obj", "meshes/tg.node", "meshes/tg.ele",

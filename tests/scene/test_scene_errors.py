@@ -87,8 +87,11 @@ TXT_CASES = [
     ("overflow", "selfFric 1e999\n" + CUBE, 1, ["must be a finite number"]),
     ("integer expected", "warmStart 1.5\n" + CUBE, 1, ["must be a whole number, got '1.5'"]),
     ("warmStart range", "warmStart 6\n" + CUBE, 1, ["`warmStart` must be an integer 0..5"]),
-    ("QP solver", "constraintSolver QP\n" + CUBE, 1, ["'QP' is not implemented by ipcsim"]),
-    ("SQP solver", "constraintSolver SQP\n" + CUBE, 1, ["'SQP' is not implemented"]),
+    ("STIV constraints", "constraintSolver SQP\nconstraintType STIV\n" + CUBE, 2,
+     ["constraint type 'STIV' is not implemented by ipcsim", "volume, graphics"]),
+    ("unknown constraint type", "constraintType volum\n" + CUBE, 1,
+     ["unknown constraint type 'volum'", "did you mean 'volume'"]),
+    ("negative offset", "constraintOffset -1e-3\n" + CUBE, 1, ["must be >= 0"]),
     ("unknown solver", "constraintSolver interiorPt\n" + CUBE, 1,
      ["unknown constraint solver", "did you mean 'interiorPoint'"]),
     ("unsupported script", "script hang\n" + CUBE, 1,
@@ -183,7 +186,8 @@ TOML_CASES = [
     ("negative plane friction", BASE_TOML + '[[planes]]\nkind = "ground"\nheight = 0\n'
      "friction = -1\n", 6, ["planes[0].friction must be >= 0"]),
     ("kappa word", '[contact]\nkappa = "auto"\n' + BASE_TOML, 2, ['a number or "adaptive"']),
-    ("QP", '[solver]\nconstraint_solver = "QP"\n' + BASE_TOML, 2, ["not implemented by ipcsim"]),
+    ("CMR", '[solver]\nconstraint_solver = "QP"\nconstraint_type = "CMR"\n' + BASE_TOML, 3,
+     ["'CMR' is not implemented by ipcsim"]),
     ("matrix with velocity", BASE_TOML + "matrix = {counts = [2, 1, 1], spacing = [1, 1, 1]}\n"
      "linear_velocity = [0, 1, 0]\n", 4, ["a shape with `matrix` takes only"]),
     ("kind mismatch", BASE_TOML + 'kind = "segments"\n', 3, ["does not fit the tet mesh"]),

@@ -5,11 +5,12 @@ from __future__ import annotations
 import math
 
 import pytest
-from scene_support import example_scripts
+from scene_support import example_scripts, extra_scripts_with_meshes
 
 from ipcsim.scene import load_scene, save_scene
 
-SCRIPTS = example_scripts()
+# the curated set, and the scripts only the full example tree has (those whose meshes exist)
+SCRIPTS = example_scripts() + extra_scripts_with_meshes()
 
 
 def _id(path):

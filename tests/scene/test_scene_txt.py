@@ -91,6 +91,20 @@ def test_sections_follow_the_interior_point_solver(load_text):
     assert s.warnings == ()
 
 
+def test_sections_follow_the_solver_selected_before_them(load_text):
+    """As the original: a section is read when it names the constraint solver selected so
+    far; the SQP settings inside it are read."""
+    text = ("section SQP QP\ntime 9 0.5\nsection end\n"  # before: interiorPoint
+            "constraintSolver SQP\n"
+            "section SQP QP\nwarmStart 1\nconstraintType graphics\nconstraintOffset 1e-3\n"
+            "useActiveSetConvergence\nsection end\n"
+            "section interiorPoint\ndensity 5\nsection end\n" + CUBE)
+    s = load_text(text)
+    assert (s.duration, s.dt, s.density) == (5.0, 0.025, 1000.0)
+    assert (s.constraint_solver, s.warm_start, s.constraint_type) == ("SQP", 1, "graphics")
+    assert s.constraint_offset == 1e-3 and s.active_set_convergence
+
+
 def test_section_without_end_skips_to_end_of_file(load_text):
     s = load_text(CUBE + "section QP\ntime 9 0.5\nsection\n")
     assert s.duration == 5.0
@@ -184,9 +198,9 @@ def test_legacy_keywords(load_text, scene_dir):
 
 def test_ignored_and_no_op_keywords(load_text, scene_dir):
     s = load_text("view orthographic\nzoom 0.3\ncameraTracking\nCCDMethod TightInclusion\n"
-                  "constraintType graphics\ntimeStepper NM\ninexactSolve\nresolution 3\n" + CUBE)
+                  "QPSolver Gurobi\ntimeStepper NM\ninexactSolve\nresolution 3\n" + CUBE)
     assert s.ignored == ("view orthographic", "zoom 0.3", "cameraTracking",
-                         "CCDMethod TightInclusion", "constraintType graphics")
+                         "CCDMethod TightInclusion", "QPSolver Gurobi")
     path = scene_dir / "scene.txt"
     assert s.warnings == tuple(
         f"{path}:{n}: warning: `{kw}` has no effect and is ignored (the original program "

@@ -202,3 +202,17 @@ def test_auto_falls_back_when_preferred_backends_are_missing(monkeypatch):
     monkeypatch.setitem(linear.SOLVERS, "pardiso", missing)
     assert make_solver(None).name == "scipy"
     assert available_solvers() == ["scipy"]
+
+
+@pytest.mark.parametrize("name", sorted(SOLVERS))
+def test_solve_again_reuses_the_last_factor(name):
+    """Newton's kinematic completion solves a second right-hand side with the factor of
+    the first solve: the answer must be that of the same matrix."""
+    require(name)
+    A = block_spd(200, seed=7)
+    solver = make_solver(name)
+    rng = np.random.default_rng(3)
+    solver.solve(A, rng.standard_normal(A.shape[0]))
+    b = rng.standard_normal(A.shape[0])
+    assert rel_residual(A, solver.solve_again(b), b) < 1e-10
+    assert solver.solve_again(np.zeros(0)).shape == (0,)

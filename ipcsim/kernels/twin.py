@@ -1,0 +1,77 @@
+"""Kernels compiled in two variants from one source: serial, and parallel.
+
+A parallel numba kernel (``prange`` loops run on numba's threads) costs tens to hundreds
+of microseconds per launch, more than a small problem's whole loop, and compiling it costs
+several times what the serial kernel does (numba's parfor passes). So each kernel that has
+a ``prange`` loop, or calls one that has, is declared with ``@kernel(...)`` and compiled on
+first use in the variant the process runs: serial while it runs on one thread (every small
+scene, and the test suite), parallel once ``threads.use_threads`` chose more than one. A
+variant calls the same variant of every kernel it calls. The two variants share the source
+and differ in name only in numba's cache (``<name>_serial``, ``<name>_parallel``).
+"""
+
+from __future__ import annotations
+
+import functools
+import types
+
+from numba import njit
+
+_mode = {"parallel": False}
+
+
+def run_parallel(on: bool) -> None:
+    """Call (and compile) the parallel variants from now on (``on``) or the serial ones."""
+    _mode["parallel"] = bool(on)
+
+
+def running_parallel() -> bool:
+    return _mode["parallel"]
+
+
+class Kernel:
+    """A kernel of both variants; calling it runs the variant of the current mode."""
+
+    def __init__(self, py_func, parallel: bool, options: dict):
+        self.py_func = py_func
+        self.parallel = parallel  # the source has prange loops to run in parallel
+        self.options = options
+        self._variants = {}
+        functools.update_wrapper(self, py_func)
+
+    def variant(self, parallel: bool):
+        """The njit dispatcher of one variant, made on first use (when its module and
+        every module it names are loaded): the kernels it calls are bound to their
+        variant of the same mode."""
+        dispatcher = self._variants.get(parallel)
+        if dispatcher is None:
+            f = self.py_func
+            names = dict(f.__globals__)
+            for name in f.__code__.co_names:
+                if isinstance(names.get(name), Kernel):
+                    names[name] = names[name].variant(parallel)
+            copy = types.FunctionType(f.__code__, names, f.__name__, f.__defaults__,
+                                      f.__closure__)
+            copy.__qualname__ = f"{f.__qualname__}_{'parallel' if parallel else 'serial'}"
+            copy.__module__, copy.__doc__ = f.__module__, f.__doc__
+            dispatcher = njit(cache=True, parallel=parallel and self.parallel,
+                              **self.options)(copy)
+            self._variants[parallel] = dispatcher
+        return dispatcher
+
+    def __call__(self, *args):
+        return self.variant(_mode["parallel"])(*args)
+
+    @property
+    def signatures(self) -> list:
+        """Every signature compiled, over both variants."""
+        return [sig for d in self._variants.values() for sig in d.signatures]
+
+
+def kernel(parallel: bool = False, **options):
+    """Declare a kernel of two variants: ``@kernel(parallel=True, error_model="numpy")``
+    for one with ``prange`` loops, ``@kernel()`` for one that only calls such kernels.
+    ``options`` go to ``numba.njit`` (always with ``cache=True``)."""
+    def wrap(py_func):
+        return Kernel(py_func, parallel, options)
+    return wrap

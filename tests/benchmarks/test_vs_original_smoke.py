@@ -1,0 +1,129 @@
+"""The benchmark against the original IPC program, in small.
+
+Always: the shortening of scripts (and that ipcsim reads the shortened scripts of the
+default list as the table says), and the ipcsim half with the table, CSV and chart
+written for two steps of the hello world. With the original program able to run here
+(its libraries installed, or ``IPC_LIB_PATH`` naming them): 20 steps of 2cubesFall
+through both programs."""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import os
+
+import pytest
+from examples import IPC_EXAMPLES
+
+from benchmarks import vs_original as vs
+from ipcsim.scene import load_scene
+
+
+def test_the_time_line_is_added_at_the_end_after_a_last_line_without_newline():
+    text = vs.shortened("time 5 0.025\nselfFric 0.1\ntol 1\n1e-4", 0.5, 0.025)
+    lines = text.splitlines()
+    assert lines[-2:] == ["1e-4", "time 0.5 0.025  # added by benchmarks.vs_original"]
+    assert text.endswith("\n")
+
+
+def test_the_time_line_goes_before_the_first_section():
+    text = "time 6 0.04\nshapes input 1\nm.msh 0 0 0\nsection QP\ntime 10 5e-3\nsection\n"
+    lines = vs.shortened(text, 0.08, 0.04).splitlines()
+    k = lines.index("section QP")
+    assert lines[k - 1].startswith("time 0.08 0.04 ")
+    assert lines[k:] == ["section QP", "time 10 5e-3", "section"]
+
+
+def _staged_defaults(tmp_path):
+    stage = vs.stage_input(tmp_path)
+    return [vs.stage_scene(sc, path, stage) for sc, path in vs.expand()]
+
+
+def test_the_default_list_has_every_tutorial_and_ipcsim_reads_each_shortening(tmp_path):
+    if not IPC_EXAMPLES.is_dir():
+        pytest.skip("../shared/ipc-examples is not present")
+    tutorials = sorted(IPC_EXAMPLES.joinpath("input", "tutorialExamples").rglob("*.txt"))
+    staged = _staged_defaults(tmp_path)
+    assert {st.source for st in staged} >= set(tutorials)
+    assert len({st.name for st in staged}) == len(staged) == len(vs.expand())
+    assert len({st.script for st in staged}) == len(staged)  # no two share a copy
+    for st in staged:
+        spec, as_written = load_scene(st.script), load_scene(st.source)
+        if st.scene.shorten is None:
+            assert (spec.duration, spec.dt) == (as_written.duration, as_written.dt), st.name
+            continue
+        duration, dt = st.scene.shorten
+        assert spec.dt == as_written.dt == dt, st.name  # shortened, never a new step size
+        assert spec.duration == duration and spec.duration < as_written.duration, st.name
+        assert spec.n_steps == round(duration / dt), st.name
+
+
+def test_ipcsim_half_and_the_written_table(tmp_path):
+    stage = vs.stage_input(tmp_path)
+    st = vs.stage_scene(vs.SMOKE_REPO, vs.REPO_ROOT / vs.SMOKE_REPO.script, stage)
+    s = vs.Settings(tmp_path, say=lambda *a: None)
+    run = vs.run_ipcsim(st.script, tmp_path / "runs" / "ipcsim", stage, s)
+    assert run.rc == 0 and run.steps == 2 and run.vertices == 432
+    assert run.newton_per_step >= 1 and run.steps_wall_s > 0 and run.peak_mb > 10
+    st.runs["ipcsim"].append(run)
+    row = vs.summarise(st, {})
+    info = vs.machine() | {"load_after": vs._load()}
+    paths = vs.write_outputs([row], info, s, tmp_path / "docs")
+    assert [p.name for p in paths] == ["vs_original.csv", "vs_original_table.md",
+                                       "vs_original.png"]
+    assert all(p.stat().st_size > 0 for p in paths)
+    table = paths[1].read_text()
+    assert "Machine: " in table and "load average" in table
+    cells = [c.strip() for c in table.splitlines()[-1].strip("|").split("|")]
+    assert cells[:3] == ["hello world, 0.05 s", "432", "2"]
+    assert cells[3] == "–" and cells[5] == "–" and cells[-1] == "not compared"
+    with open(paths[0], newline="") as f:
+        (written,) = list(csv.DictReader(f))
+    assert written["ipcsim_steps"] == "2" and written["original_wall_s"] == ""
+
+
+def test_both_programs_on_a_tiny_scene(tmp_path, capsys):
+    if not IPC_EXAMPLES.is_dir():
+        pytest.skip("../shared/ipc-examples is not present")
+    assert vs.main(["--smoke", "--out", str(tmp_path)]) == 0
+    printed = capsys.readouterr().out
+    if "vs_original: skipped:" in printed:
+        pytest.skip(printed.strip().splitlines()[-1])
+    with open(tmp_path / "vs_original.csv", newline="") as f:
+        (row,) = list(csv.DictReader(f))
+    assert row["original_rc"] == row["ipcsim_rc"] == "0"
+    assert row["original_steps"] == row["ipcsim_steps"] == "20"  # the same steps
+    assert row["original_vertices"] == row["ipcsim_vertices"] == "16"
+    for program in ("original", "ipcsim"):
+        assert float(row[f"{program}_newton_per_step"]) >= 1
+        assert float(row[f"{program}_wall_s"]) >= float(row[f"{program}_steps_wall_s"]) > 0
+        assert float(row[f"{program}_peak_mb"]) > 1
+    assert row["compare_verdict"] in ("same", "different")
+    assert float(row["compare_max_rel"]) >= 0
+
+
+def test_the_original_run_directly_is_the_run_of_run_ipc_sh(tmp_path):
+    if not IPC_EXAMPLES.is_dir():
+        pytest.skip("../shared/ipc-examples is not present")
+    stage = vs.stage_input(tmp_path)
+    s = vs.Settings(tmp_path, lib_path=os.environ.get("IPC_LIB_PATH", ""))
+    why = vs.can_run_original(stage, s)
+    if why:
+        pytest.skip(why)
+    (scene, path), = vs.expand((vs.SMOKE,))
+    st = vs.stage_scene(scene, path, stage)
+    direct = vs.run_original(st.script, tmp_path / "direct" / "original", stage, s)
+    script = vs.run_original(st.script, tmp_path / "script" / "original", stage,
+                             dataclasses.replace(s, via_script=True))
+    assert direct.rc == script.rc == 0
+    assert (direct.steps, direct.newton_per_step) == (script.steps, script.newton_per_step)
+    for name in ("20.obj", "status20"):
+        assert (tmp_path / "direct" / "original" / name).read_bytes() == \
+            (tmp_path / "script" / "original" / name).read_bytes()
+
+
+def test_without_the_original_it_says_so_and_exits_0(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(vs, "ORIGINAL", tmp_path / "no-such-program")
+    assert vs.main(["--smoke", "--work", str(tmp_path / "work")]) == 0
+    assert "vs_original: skipped: the original program is not installed" in \
+        capsys.readouterr().out
