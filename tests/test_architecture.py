@@ -155,3 +155,12 @@ def test_no_function_takes_more_than_eight_parameters():
 def test_no_function_is_longer_than_about_80_lines():
     assert [f"{p}:{n.lineno} {n.name} ({n.end_lineno - n.lineno + 1} lines)"
             for p, n in _functions() if n.end_lineno - n.lineno + 1 > MAX_LINES] == []
+
+
+def test_every_module_is_named_in_the_architecture():
+    """docs/architecture.md names every module of the package (by its file name)."""
+    text = (PACKAGE.parent / "docs" / "architecture.md").read_text(encoding="utf-8")
+    missing = [str(path.relative_to(PACKAGE)) for path in sorted(PACKAGE.rglob("*.py"))
+               if path.name != "__init__.py" and f"`{path.name}`" not in text
+               and f"{path.parent.name}/{path.name}" not in text]
+    assert not missing, f"docs/architecture.md does not name {missing}"
