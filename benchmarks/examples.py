@@ -14,8 +14,9 @@ scenes, no tet is inverted (fixed-corotated elements may invert: the method prom
 nothing there). Scripts whose meshes are not in the tree are listed as such.
 
 Writes ``examples.csv`` and ``examples_table.md`` (script, vertices, tets, steps,
-s/step, Newton it./step, clean, and the original's s/step and it./step) into ``--out``
-(default docs/benchmarks/), with the machine, the date and the load.
+s/step, Newton it./step, clean, the original's s/step and it./step, both programs'
+whole-process wall time and peak memory) into ``--out`` (default docs/benchmarks/), with
+the machine, the date and the load.
 """
 
 from __future__ import annotations
@@ -57,6 +58,10 @@ class Row:
     original_status: str = ""
     original_s_per_step: float | None = None
     original_newton_per_step: float | None = None
+    wall_s: float | None = None  # whole process, ipcsim
+    original_wall_s: float | None = None
+    peak_mb: float | None = None  # peak resident memory of the process, ipcsim
+    original_peak_mb: float | None = None
 
 
 def scripts(only: str | None) -> list[Path]:
@@ -128,11 +133,13 @@ def sweep_one(path: Path, stage: Path, s: vs.Settings, default_steps: int,
     run = vs.run_ipcsim(staged.script, folder / "ipcsim", stage, s)
     row.status, row.steps = _status(run), run.steps
     row.s_per_step, row.newton_per_step = _per_step(run)
+    row.wall_s, row.peak_mb = run.wall_s, run.peak_mb
     row.clean = _clean(folder / "ipcsim", spec.energy) if run.steps else "-"
     if with_original:
         orig = vs.run_original(staged.script, folder / "original", stage, s)
         row.original_status = _status(orig)
         row.original_s_per_step, row.original_newton_per_step = _per_step(orig)
+        row.original_wall_s, row.original_peak_mb = orig.wall_s, orig.peak_mb
     s.say(f"{row.script}: {row.status}, {row.steps} steps, {_g(row.s_per_step)} s/step, "
           f"clean {row.clean}; original {row.original_status or '-'}")
     return row
@@ -143,18 +150,21 @@ def _g(x, fmt=".3g") -> str:
 
 
 HEADER = ("| script | vertices | tets | steps | s/step | Newton it./step | clean | "
-          "original s/step | original it./step | status |")
+          "original s/step | original it./step | wall s, original / ipcsim "
+          "| peak MB, original / ipcsim | status |")
 
 
 def markdown(rows: list[Row]) -> str:
-    lines = [HEADER, "|" + "---|" * 10]
+    lines = [HEADER, "|" + "---|" * 12]
     for r in rows:
         status = r.status + (f"; original {r.original_status}"
                              if r.original_status and r.original_status != "ok" else "")
         lines.append(f"| {r.script} | {_g(r.vertices, 'd')} | {_g(r.tets, 'd')} | "
                      f"{_g(r.steps, 'd')} | {_g(r.s_per_step)} | {_g(r.newton_per_step)} | "
                      f"{r.clean} | {_g(r.original_s_per_step)} | "
-                     f"{_g(r.original_newton_per_step)} | {status} |")
+                     f"{_g(r.original_newton_per_step)} | "
+                     f"{_g(r.original_wall_s)} / {_g(r.wall_s)} | "
+                     f"{_g(r.original_peak_mb, '.0f')} / {_g(r.peak_mb, '.0f')} | {status} |")
     return "\n".join(lines) + "\n"
 
 
