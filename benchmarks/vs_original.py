@@ -19,8 +19,9 @@ Per scene and program: whole-process wall time, wall time of the steps (ipcsim: 
 of steps.csv ``wall_s``; the original: its time stamps, as ``ipc_stats.py`` reads them),
 Newton iterations per step, contacts per step (ipcsim: steps.csv ``contacts_total``; the
 original: the last ``# constraint = N`` of each step in its stdout.txt, which may count
-differently), peak resident memory of the process tree (``ru_maxrss`` from ``wait4``)
-and the exit status. Times are medians over the repeats; each repeat runs the two
+differently), peak resident memory of the program's process (its VmHWM, read every
+20 ms while it runs: ``ru_maxrss`` would also count this process's memory, which a child
+holds between fork and exec) and the exit status. Times are medians over the repeats; each repeat runs the two
 programs in turn, the order swapped every repeat, so that the machine's load falls on
 both alike. Afterwards the trajectories are compared as ``ipcsim compare --rtol R
 IPCSIM_OUT ORIGINAL_OUT`` compares them (in-process): the step where the two part by more
@@ -149,13 +150,13 @@ class Run:
 
     rc: int
     wall_s: float
-    peak_mb: float
+    peak_mb: float | None
     steps: int | None = None
     steps_wall_s: float | None = None
     newton_per_step: float | None = None
     contacts_mean: float | None = None
     vertices: int | None = None
-    own_peak_mb: float | None = None  # the original's own figure (info.txt)
+    own_peak_mb: float | None = None  # the program's own figure (info.txt, run.json)
 
 
 @dataclass
@@ -262,25 +263,51 @@ def _kill_group(pid: int, flag: list) -> None:
         pass
 
 
+def _watch_high_water(pid: int, seen: list, stop: threading.Event) -> None:
+    """Read the process's VmHWM (kB) every 20 ms until it ends: the high-water mark of its
+    own address space, unlike ``ru_maxrss``, which also counts the memory of this (the
+    parent) process that the child held between fork and exec."""
+    path = f"/proc/{pid}/status"
+    while True:  # Popen returns after the exec: the first reading is the program's own
+        try:
+            with open(path, encoding="ascii", errors="replace") as f:
+                for line in f:
+                    if line.startswith("VmHWM:"):
+                        seen.append(int(line.split()[1]))
+        except (OSError, ValueError, IndexError):
+            return
+        if stop.wait(0.02):
+            return
+
+
 def run_timed(cmd: list, cwd: Path, env: dict, log: Path, timeout: float) -> tuple:
     """Run ``cmd`` in its own process group: (exit status, wall seconds, peak resident MB
-    of it and the children it waited for). Past ``timeout`` the group is killed and the
-    status is :data:`TIMEOUT_EXIT`."""
+    of its process: the last VmHWM read while it ran, None for a process too short to
+    be read twice). Past ``timeout`` the group is killed and the status is
+    :data:`TIMEOUT_EXIT`."""
     killed: list = []
+    seen: list = []
+    stop = threading.Event()
     with open(log, "wb") as f:
         start = time.perf_counter()
         proc = subprocess.Popen(cmd, cwd=cwd, env=env, stdin=subprocess.DEVNULL, stdout=f,
                                 stderr=subprocess.STDOUT, start_new_session=True)
         timer = threading.Timer(timeout, _kill_group, (proc.pid, killed))
+        watcher = threading.Thread(target=_watch_high_water, args=(proc.pid, seen, stop),
+                                   daemon=True)
         timer.start()
+        watcher.start()
         try:
             _, status, usage = os.wait4(proc.pid, 0)
         finally:
             timer.cancel()
+            stop.set()
         wall = time.perf_counter() - start
+    watcher.join()
     proc.returncode = os.waitstatus_to_exitcode(status)
     rc = TIMEOUT_EXIT if killed else proc.returncode
-    return rc, wall, usage.ru_maxrss / 1024.0  # Linux: kilobytes
+    # a process that ended before a second reading was not watched long enough to tell
+    return rc, wall, max(seen) / 1024.0 if len(seen) > 1 else None  # kilobytes
 
 
 def original_env(lib_path: str, threads: int) -> dict:
@@ -377,6 +404,10 @@ def read_ipcsim(out: Path, run: Run) -> None:
     first = out / "frames" / "frame_000000.vtu"
     if first.is_file():
         run.vertices = len(meshio.read(first).points)
+    try:
+        run.own_peak_mb = json.loads((out / "run.json").read_text())["peak_memory_mb"]
+    except (OSError, ValueError, KeyError, TypeError):
+        pass
 
 
 _STAMP = r"\[(\d{4}-\d\d-\d\d \d\d:\d\d:\d\d\.\d+)\] \[\w+\] "

@@ -366,7 +366,7 @@ def _run_info(run: _Run, status: int, failure, wall0: float, started: str) -> No
     import json
 
     from .io.csv_log import StepLog, read_csv
-    from .io.run_info import RUN_INFO_NAME, now_iso, write_run_info
+    from .io.run_info import RUN_INFO_NAME, now_iso, peak_memory_mb, write_run_info
 
     out = run.out
     info = {"scene": run.scene_name, "output": str(out), "started": started,
@@ -389,7 +389,8 @@ def _run_info(run: _Run, status: int, failure, wall0: float, started: str) -> No
             pass
     logged = read_csv(out / StepLog.FILE_NAME)  # totals of the kept and the new steps
     converged = logged.get("converged", np.ones(0))
-    info.update(finished=now_iso(), wall_s=wall, steps_done=run.sim.state.step,
+    info.update(finished=now_iso(), wall_s=wall, peak_memory_mb=peak_memory_mb(),
+                steps_done=run.sim.state.step,
                 newton_iterations=int(np.sum(logged.get("newton_iterations", 0))),
                 steps_hitting_iteration_cap=int(np.sum(logged.get("hit_iteration_cap", 0))),
                 steps_not_converged=int(np.sum(converged == 0)),

@@ -20,7 +20,8 @@ import numpy as np
 
 from ..atomic import atomic_write_text
 
-__all__ = ["RUN_INFO_NAME", "RUN_KEYS", "environment_info", "now_iso", "write_run_info"]
+__all__ = ["RUN_INFO_NAME", "RUN_KEYS", "environment_info", "now_iso", "peak_memory_mb",
+           "write_run_info"]
 
 RUN_INFO_NAME = "run.json"
 
@@ -32,6 +33,7 @@ RUN_KEYS: tuple[str, ...] = (
     "started",
     "finished",
     "wall_s",
+    "peak_memory_mb",
     "steps_planned",
     "steps_done",
     "newton_iterations",
@@ -41,6 +43,26 @@ RUN_KEYS: tuple[str, ...] = (
     "modelled_terms",
     "linear_solver",
 )
+
+
+def peak_memory_mb() -> float | None:
+    """This process's peak resident memory in MB: VmHWM of /proc/self/status, the high
+    water mark of its own address space (``ru_maxrss`` would also count the parent's,
+    which a forked child holds until it execs); ``ru_maxrss`` where /proc is missing."""
+    try:
+        with open("/proc/self/status", encoding="ascii", errors="replace") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024.0  # kB
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        import resource
+
+        scale = 1024.0 * 1024.0 if sys.platform == "darwin" else 1024.0  # bytes / kB
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / scale
+    except (ImportError, OSError):
+        return None
 
 
 def now_iso() -> str:

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 import ipcsim
-from ipcsim.io.run_info import RUN_KEYS, environment_info, now_iso, write_run_info
+from ipcsim.io.run_info import (RUN_KEYS, environment_info, now_iso, peak_memory_mb,
+                                 write_run_info)
 
 
 def test_run_json_has_environment_and_caller_facts(tmp_path):
@@ -70,3 +71,17 @@ def test_unserialisable_value_raises_and_keeps_old_file(tmp_path):
 def test_environment_info_is_json_ready():
     env = environment_info()
     assert json.loads(json.dumps(env)) == env
+
+
+
+def test_peak_memory_is_the_process_own_high_water_mark():
+    """A fresh interpreter that touches 200 MB reports a peak that grew by about that."""
+    import subprocess
+    import sys
+
+    code = ("import numpy as np; from ipcsim.io.run_info import peak_memory_mb as p; "
+            "a = p(); b = np.ones(200 * 2**20 // 8); print(a, p())")
+    before, after = map(float, subprocess.run([sys.executable, "-c", code], check=True,
+                                              capture_output=True, text=True).stdout.split())
+    assert 1.0 < before < 150.0
+    assert 190.0 < after - before < 260.0
