@@ -13,7 +13,7 @@ import dataclasses
 import os
 
 import pytest
-from examples import IPC_EXAMPLES
+from examples import IPC_EXAMPLES, IPC_EXAMPLES_FULL
 
 from benchmarks import vs_original as vs
 from ipcsim.scene import load_scene
@@ -127,3 +127,19 @@ def test_without_the_original_it_says_so_and_exits_0(tmp_path, monkeypatch, caps
     assert vs.main(["--smoke", "--work", str(tmp_path / "work")]) == 0
     assert "vs_original: skipped: the original program is not installed" in \
         capsys.readouterr().out
+
+
+def test_shortening_reaches_the_time_line_of_an_sqp_section(tmp_path):
+    """With ``constraintSolver SQP`` the ``time`` line of a ``section SQP ... section end``
+    block is the one read: the shortened script must say the shortened time there too."""
+    if not IPC_EXAMPLES_FULL.is_dir():
+        pytest.skip("../shared/ipc-examples-full is not present")
+    source = IPC_EXAMPLES_FULL / "input" / "failures" / "GurobiException.txt"
+    as_written = load_scene(source)
+    short = tmp_path / "input" / "failures" / "short.txt"
+    short.parent.mkdir(parents=True)
+    for folder in ("tetMeshes", "triMeshes"):
+        (tmp_path / "input" / folder).symlink_to(source.parents[1] / folder)
+    short.write_text(vs.shortened(source.read_text(), 5 * as_written.dt, as_written.dt))
+    spec = load_scene(short)
+    assert spec.dt == as_written.dt and spec.n_steps == 5 < as_written.n_steps
