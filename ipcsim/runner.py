@@ -39,6 +39,9 @@ MAX_STEP_WARNINGS = 10  # non-converged steps named by warn(); run.json counts a
 # and rows are replaced atomically but not forced to disk: a killed run resumes from the
 # last checkpoint and computes at most this much again.
 CHECKPOINT_SECONDS = 2.0
+# frames/series.pvd is rewritten whole with a frame at most this often (wall seconds), and
+# brought up to date at each checkpoint and however the run ends
+SERIES_SECONDS = 1.0
 
 
 def _nothing(*_) -> None:
@@ -247,6 +250,7 @@ def _open_output(run: _Run):
         save_scene(run.scene, out / "scene.toml")
     run.frames = FrameWriter(out, tets=model.tets, triangles=model.kinematic_surface_triangles,
                              body_id=model.vertex_shape)
+    run.frames.series_interval = SERIES_SECONDS
     if run.render:
         from .io.render import LiveRenderer
 
@@ -344,6 +348,7 @@ def _simulate(run: _Run) -> tuple[int, str | None, str | None]:
             progress.close()  # before any message, so that it does not tangle with the bar
             if run.renderer is not None:
                 run.renderer.close()
+            run.frames.flush()  # the series names every frame written
     return 0, None, None
 
 

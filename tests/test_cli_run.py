@@ -11,6 +11,7 @@ from generated import write_box_msh
 
 from ipcsim.cli import main
 from ipcsim.io.csv_log import read_csv
+from ipcsim.io.vtk import read_series
 from ipcsim.scene import load_scene
 
 
@@ -34,8 +35,12 @@ def test_run_writes_the_output_folder(drop_scene, tmp_path, capsys):
     frames = sorted((out / "frames").glob("frame_*.vtu"))
     assert len(frames) == 21  # every step at h = 0.01, plus the initial state
     assert meshio.read(frames[-1]).points.shape == (27, 3)
+    # the series, rewritten at most once a second during the run, names every frame
+    assert [p.name for _, p in read_series(out / "frames" / "series.pvd")] == \
+        [p.name for p in frames]
     info = json.loads((out / "run.json").read_text())
     assert info["steps_done"] == 20 and "plane contact (1 plane)" in info["modelled_terms"]
+    assert info["peak_memory_mb"] > 10.0
     # the resolved scene reproduces the run's scene
     assert load_scene(out / "scene.toml") == load_scene(drop_scene)
     # an existing output folder is never silently overwritten

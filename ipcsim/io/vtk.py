@@ -14,8 +14,10 @@ from __future__ import annotations
 import base64
 import contextlib
 import io
+import math
 import os
 import sys
+import time as _time
 import zlib
 from pathlib import Path
 from xml.etree import ElementTree
@@ -206,8 +208,15 @@ class FrameWriter:
         )
         self._body_id = _as_point_array("body_id", body.astype(np.int64), n)
         self._body_xml = _data_array("body_id", self._body_id, compression_level)
-        self._series: dict[int, tuple[float, str]] = {}
+        self._entries: dict[int, tuple[float, str]] = {}  # index -> (time, file name)
+        self._series: dict[int, str] = {}  # index -> the series' line of that frame
         self._unsynced: set[Path] = set()  # written without fsync since the last sync()
+        # The series is rewritten whole with every frame unless this many wall seconds
+        # have not passed since it last was (a run sets it: 201 rewrites of a growing
+        # file were a tenth of a tiny scene's run); flush() and sync() catch it up.
+        self.series_interval = 0.0
+        self._series_written = -math.inf  # time.monotonic() of the last rewrite
+        self._series_behind = False
         self.frames_dir.mkdir(parents=True, exist_ok=True)
 
     @property
@@ -218,7 +227,7 @@ class FrameWriter:
     @property
     def frames(self) -> list[tuple[int, float, Path]]:
         """``(index, time, path)`` of every frame written so far, by index."""
-        return [(i, t, self.frames_dir / f) for i, (t, f) in sorted(self._series.items())]
+        return [(i, t, self.frames_dir / f) for i, (t, f) in sorted(self._entries.items())]
 
     def write(self, index: int, time: float, positions, velocity, **point_data) -> Path:
         """Write frame ``index`` at simulated ``time`` [s] and update the series.
@@ -268,12 +277,22 @@ class FrameWriter:
         path = self.frames_dir / name
         atomic_write_bytes(path, "".join(parts).encode("ascii"), fsync=self.fsync)
         self._unsynced.add(path)
-        self._series[index] = (time, name)
-        self._write_series()
+        self._add_to_series(index, time, name)
+        if _time.monotonic() - self._series_written >= self.series_interval:
+            self._write_series()
+        else:
+            self._series_behind = True
         return path
 
+    def flush(self) -> None:
+        """Bring the series up to date with every frame written."""
+        if self._series_behind:
+            self._write_series()
+
     def sync(self) -> None:
-        """Force the frames and the series written since the last call to disk."""
+        """Bring the series up to date and force the frames and the series written since
+        the last call to disk."""
+        self.flush()
         sync_to_disk(sorted(self._unsynced))
         self._unsynced.clear()
 
@@ -289,21 +308,27 @@ class FrameWriter:
             if index > last_index:
                 path.unlink()
             else:
-                self._series[index] = (float(time_of(index)), path.name)
+                self._add_to_series(index, float(time_of(index)), path.name)
         self._write_series()
+
+    def _add_to_series(self, index: int, time: float, name: str) -> None:
+        self._entries[index] = (time, name)
+        # repr keeps the exact double; ParaView and pyvista parse it as a float
+        self._series[index] = f'    <DataSet timestep="{time!r}" part="0" ' \
+                              f'file={quoteattr(name)}/>\n'
 
     def _write_series(self) -> None:
         lines = [
             '<?xml version="1.0"?>\n',
             '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n',
             "  <Collection>\n",
+            *(line for _, line in sorted(self._series.items())),
+            "  </Collection>\n</VTKFile>\n",
         ]
-        for _, (t, name) in sorted(self._series.items()):
-            # repr keeps the exact double; ParaView and pyvista parse it as a float
-            lines.append(f'    <DataSet timestep="{t!r}" part="0" file={quoteattr(name)}/>\n')
-        lines.append("  </Collection>\n</VTKFile>\n")
         atomic_write_text(self.series_path, "".join(lines), fsync=self.fsync)
         self._unsynced.add(self.series_path)
+        self._series_written = _time.monotonic()
+        self._series_behind = False
 
 
 class FrameError(IpcsimError):

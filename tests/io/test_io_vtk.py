@@ -107,6 +107,25 @@ def test_rewriting_a_frame_replaces_its_series_entry(tmp_path):
     np.testing.assert_array_equal(meshio.read(writer.frames_dir / frame_file_name(1)).points, x + 1)
 
 
+
+def test_a_series_interval_lets_the_series_lag_until_flush_or_sync(tmp_path):
+    """With ``series_interval`` the series is rewritten with a frame only when that many
+    seconds have passed; ``flush`` and ``sync`` bring it up to date."""
+    x, tets, triangles, _, _, body_id = small_scene()
+    writer = FrameWriter(tmp_path, tets, triangles, body_id)
+    writer.series_interval = 3600.0
+    v = np.zeros_like(x)
+    writer.write(0, 0.0, x, v)  # the first frame writes the series
+    writer.write(1, 0.5, x, v)
+    writer.write(2, 1.0, x, v)
+    assert [t for t, _ in read_series(writer.series_path)] == [0.0]
+    writer.flush()
+    assert [t for t, _ in read_series(writer.series_path)] == [0.0, 0.5, 1.0]
+    writer.write(3, 1.5, x, v)
+    writer.sync()
+    assert [t for t, _ in read_series(writer.series_path)] == [0.0, 0.5, 1.0, 1.5]
+    assert [i for i, _, _ in writer.frames] == [0, 1, 2, 3]
+
 def test_without_cells_every_vertex_becomes_a_vertex_cell(tmp_path):
     writer = FrameWriter(tmp_path, np.zeros((0, 4), dtype=int), [], [0, 0, 1])
     path = writer.write(0, 0.0, np.eye(3), np.zeros((3, 3)))
