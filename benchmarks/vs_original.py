@@ -212,18 +212,20 @@ def cut_to(scene: Scene, source: Path, duration: float) -> Scene:
 def shortened(text: str, duration: float, dt: float) -> str:
     """The script with ``time DURATION DT`` as its last effective ``time`` line: before
     the first ``section`` line (both programs skip what follows a ``section`` that is
-    not closed by ``section end``), else at the end; a ``time`` line inside a section
-    (``section SQP QP ... section end``: what the SQP / QP solvers read instead) becomes
-    the same line."""
+    not closed by ``section end``), else at the end; a ``time`` line inside a closed
+    section (``section SQP QP ... section end``: what the SQP / QP solvers read instead)
+    becomes the same line."""
     line = f"time {duration:g} {dt:g}  # added by benchmarks.vs_original\n"
     rows = text.splitlines(keepends=True)
-    inside = False
+    opened = None  # the row of the open section's first line
     for k, row in enumerate(rows):
         words = row.split()
-        if words[:1] == ["section"]:
-            inside = words[1:2] != ["end"]
-        elif inside and words[:1] == ["time"]:
-            rows[k] = line
+        if words[:2] == ["section", "end"] and opened is not None:
+            rows[opened:k] = [line if r.split()[:1] == ["time"] else r
+                              for r in rows[opened:k]]
+            opened = None
+        elif words[:1] == ["section"]:
+            opened = k + 1
     for k, row in enumerate(rows):
         if row.split()[:1] == ["section"]:
             return "".join(rows[:k]) + line + "".join(rows[k:])
