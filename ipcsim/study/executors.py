@@ -90,13 +90,15 @@ class DaskExecutor:
                 # MALLOC_TRIM_THRESHOLD_, which turns off glibc's dynamic mmap threshold,
                 # so that every array over 128 KiB is mmap'ed and faulted in afresh (0.3 s
                 # of system time per 300 steps of a 384-tet cube, none without it). A
-                # worker takes its config from here.
+                # worker takes its config from here. Logs below CRITICAL stay quiet: a
+                # worker's heartbeat that races the scheduler's shutdown logs a traceback
+                # at ERROR, and a run's own failure is its study.csv row.
                 with dask.config.set({_TRIM: None, "distributed.worker.profile.enabled":
                                       False}):
                     self.cluster = LocalCluster(
                         n_workers=self.workers or default_workers(), threads_per_worker=1,
                         processes=True, env=dict(WORKER_ENV), dashboard_address=None,
-                        silence_logs=logging.ERROR)
+                        silence_logs=logging.CRITICAL)
                 self.client = Client(self.cluster)
         except (OSError, TimeoutError) as exc:
             self.__exit__()
