@@ -62,7 +62,8 @@ def baseline_scene(scene: Path, method: str, out: Path) -> Path:
 
 @contextmanager
 def wall_budget(seconds: float):
-    """Interrupt the run after ``seconds`` of wall time, as Ctrl-C would."""
+    """Interrupt the run after ``seconds`` of wall time, as Ctrl-C would: ``ipcsim run``
+    then stops cleanly with its frames written (exit status 130)."""
     def stop(signum, frame):
         raise KeyboardInterrupt
 

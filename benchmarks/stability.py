@@ -39,16 +39,14 @@ import csv
 import io
 import json
 import math
-import signal
 import sys
 import time
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from benchmarks.baselines import baseline_scene
+from benchmarks.baselines import baseline_scene, wall_budget
 from benchmarks.penalty import STIFFNESS_FACTORS, penalty_scene
 from benchmarks.stability_meshes import chain_placements, link_mesh, slot_mesh
 from ipcsim.model.generate import box_tet_mesh, write_msh
@@ -177,22 +175,6 @@ def cases() -> list[Case]:
 
 class WallBudget(Exception):
     pass
-
-
-@contextmanager
-def wall_budget(seconds: float):
-    """Interrupt the run after ``seconds`` of wall time, as Ctrl-C would: ``ipcsim run``
-    then stops cleanly with its frames written (exit status 130)."""
-    def stop(signum, frame):
-        raise KeyboardInterrupt
-
-    old = signal.signal(signal.SIGALRM, stop)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
-    try:
-        yield
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, old)
 
 
 def run_barrier(scene: Path, out: Path, steps: int | None, budget: float) -> dict:
