@@ -208,8 +208,8 @@ class FrameWriter:
         )
         self._body_id = _as_point_array("body_id", body.astype(np.int64), n)
         self._body_xml = _data_array("body_id", self._body_id, compression_level)
-        self._entries: dict[int, tuple[float, str]] = {}  # index -> (time, file name)
-        self._series: dict[int, str] = {}  # index -> the series' line of that frame
+        # index -> (time, file name, the frame's line of the series, formatted once)
+        self._series: dict[int, tuple[float, str, str]] = {}
         self._unsynced: set[Path] = set()  # written without fsync since the last sync()
         # The series is rewritten whole with every frame unless this many wall seconds
         # have not passed since it last was (a run sets it: 201 rewrites of a growing
@@ -227,7 +227,7 @@ class FrameWriter:
     @property
     def frames(self) -> list[tuple[int, float, Path]]:
         """``(index, time, path)`` of every frame written so far, by index."""
-        return [(i, t, self.frames_dir / f) for i, (t, f) in sorted(self._entries.items())]
+        return [(i, t, self.frames_dir / f) for i, (t, f, _) in sorted(self._series.items())]
 
     def write(self, index: int, time: float, positions, velocity, **point_data) -> Path:
         """Write frame ``index`` at simulated ``time`` [s] and update the series.
@@ -312,17 +312,16 @@ class FrameWriter:
         self._write_series()
 
     def _add_to_series(self, index: int, time: float, name: str) -> None:
-        self._entries[index] = (time, name)
         # repr keeps the exact double; ParaView and pyvista parse it as a float
-        self._series[index] = f'    <DataSet timestep="{time!r}" part="0" ' \
-                              f'file={quoteattr(name)}/>\n'
+        line = f'    <DataSet timestep="{time!r}" part="0" file={quoteattr(name)}/>\n'
+        self._series[index] = (time, name, line)
 
     def _write_series(self) -> None:
         lines = [
             '<?xml version="1.0"?>\n',
             '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n',
             "  <Collection>\n",
-            *(line for _, line in sorted(self._series.items())),
+            *(line for _, (_, _, line) in sorted(self._series.items())),
             "  </Collection>\n</VTKFile>\n",
         ]
         atomic_write_text(self.series_path, "".join(lines), fsync=self.fsync)
