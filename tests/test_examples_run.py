@@ -55,6 +55,34 @@ def test_high_school_slope_sticks_at_tan_theta_and_slides_below(mu, slides, tmp_
         assert moved < 0.005
 
 
+def test_slope_slides_at_the_default_tolerance(tmp_path):
+    """The μ = 0.49 slope without its ``tol 1e-4`` line: Newton's default tolerance is far
+    above ε_v·h, so only friction's own stopping test (pairs in the static ramp that must
+    slide) keeps the block from creeping at ε_v. It slides most of the analytic 0.27 m
+    (the looser tolerance lags each step a little); μ = 0.5 still holds."""
+    src = IPC_EXAMPLES / "input/otherExamples/friction/slopeTest_highSchoolPhysics_0.49.txt"
+    if not src.is_file():
+        pytest.skip("../shared/ipc-examples is not present")
+    import meshio
+    import numpy as np
+
+    moved = {}
+    for mu in ("0.49", "0.5"):
+        text = src.with_name(f"slopeTest_highSchoolPhysics_{mu}.txt").read_text()
+        text = text.replace("tol 1\n1e-4\n", "").replace(
+            "input/tetMeshes/", f"{IPC_EXAMPLES / 'input/tetMeshes'}/")
+        assert "tol" not in text.split() and str(IPC_EXAMPLES) in text
+        scene = tmp_path / f"slope_{mu}.txt"
+        scene.write_text(text)
+        out = tmp_path / f"out_{mu}"
+        assert main(["run", str(scene), "-o", str(out), "-q"]) == 0
+        frames = sorted((out / "frames").glob("frame_*.vtu"))
+        moved[mu] = np.linalg.norm(meshio.read(frames[-1]).points.mean(axis=0)
+                                   - meshio.read(frames[0]).points.mean(axis=0))
+    assert moved["0.49"] > 0.75 * 0.5 * 9.80665 * (1 - 0.49 * 2) / 5 ** 0.5 * 2.5 ** 2
+    assert moved["0.5"] < 0.005
+
+
 # One example per legacy script of the full example tree (the cheapest that uses it), two
 # steps each: the scripted motion runs, every step converges, and the frames pass the exact
 # check (the compactor's walls overlap each other from the start: kinematic against

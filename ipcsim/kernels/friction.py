@@ -396,9 +396,45 @@ def triplet_offsets(verts):
 
 
 @njit(cache=True, error_model="numpy")
-def ramp_unresolved(u, p, verts, coeffs, basis, eps, fraction):
-    """True when some pair in the static ramp (slip |τ(u)| < ε, τ(v) = Pᵀ Σ c_i v_i)
-    would still change its slip by fraction·ε or more along the direction p (n, 3)."""
+def ramp_unresolved(u, p, verts, coeffs, basis, weight, body, eps, fraction):
+    """True when the pairs of some body that are in the static ramp (slip y = |τ(u)| < ε,
+    τ(v) = Pᵀ Σ c_i v_i) but must slide would still change their friction force by
+    fraction·ε·Σ w or more along the direction p (n, 3): Σ_k w_k |τ_k(p)| over those
+    pairs against ε·Σ_k w_k over all pairs of the body, w_k = μλ_k. A pair's body is its
+    first vertex's (body (n,) per vertex).
+
+    To first order along p a ramp pair's friction force is μλ ρ, ρ = |(f1/y) τ + M d|,
+    d = τ(p), M its tangent stiffness / μλ (above). ρ < 1: the pair sticks, whatever the
+    solve's last digits of its slip. ρ ≥ 1: it must leave the ramp, which ‖p‖∞ < tol
+    alone does not wait for (the ramp is a stiff spring, ~2μλ/ε, so p is small). A body
+    slides on all its pairs together, so its ramp pairs' force changes, ~ w_k |d_k| / ε,
+    are summed and compared with its whole friction capacity Σ w_k."""
+    m = verts.shape[0]
+    n_bodies = 0
+    for k in range(m):
+        n_bodies = max(n_bodies, body[verts[k, 0]] + 1)
+    capacity = np.zeros(n_bodies)
+    change = np.zeros(n_bodies)
+    for k in range(m):
+        b = body[verts[k, 0]]
+        capacity[b] += weight[k]
+        P = basis[k]
+        t0, t1 = _tangential(u, verts[k], coeffs[k], P)
+        y = np.sqrt(t0 * t0 + t1 * t1)
+        if y >= eps:
+            continue  # sliding: the plain test decides
+        d0, d1 = _tangential(p, verts[k], coeffs[k], P)
+        # M d = (f1/y) d + ((f1' y − f1)/y³)(τ·d) τ, and (f1' y − f1)/y³ = −1/(ε² y)
+        f1y = f1_over_y(y, eps)
+        along = -(t0 * d0 + t1 * d1) / (eps * eps * y) if y > 0.0 else 0.0
+        g0 = f1y * (t0 + d0) + along * t0
+        g1 = f1y * (t1 + d1) + along * t1
+        if g0 * g0 + g1 * g1 >= 1.0:
+            change[b] += weight[k] * np.sqrt(d0 * d0 + d1 * d1)
+    for b in range(n_bodies):
+        if change[b] > 0.0 and change[b] >= fraction * eps * capacity[b]:
+            return True
+    return False
     limit = (fraction * eps) ** 2
     for k in range(verts.shape[0]):
         P = basis[k]
@@ -406,6 +442,7 @@ def ramp_unresolved(u, p, verts, coeffs, basis, eps, fraction):
         if t0 * t0 + t1 * t1 >= eps * eps:
             continue
         d0, d1 = _tangential(p, verts[k], coeffs[k], P)
-        if d0 * d0 + d1 * d1 >= limit:
+        r = weight[k] / w_max
+        if (d0 * d0 + d1 * d1) * r * r >= limit:
             return True
     return False

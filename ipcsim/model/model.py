@@ -161,7 +161,7 @@ class SolverSettings:
     max_newton_iterations: int = 5000  # reported in steps.csv and warned about when hit
     friction_iterations: int = 1  # fricIterAmt: lagging updates per step (≤ 0: until settled)
     friction_iteration_cap: int = 20  # fricIterAmt ≤ 0: lagging updates per step at most
-    friction_ramp_resolution: float = 0.1  # static-ramp pairs: p must change slip < this·ε
+    friction_ramp_resolution: float = 0.1  # ramp pairs that must slide: p changes slip < this·ε
     kinematic_completion: float = 1e-3  # prescribed motion done when ≥ 99.9 % of it is
     max_halvings: int = 40  # line-search halvings before giving up
     roundoff_tolerance_factor: float = 1e3  # failed line search within this · tol: converged

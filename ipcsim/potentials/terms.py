@@ -11,6 +11,8 @@ nowhere else.
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..contact.planes import Planes
 from .body_force import BodyForce
 from .damping import Damping
@@ -36,8 +38,9 @@ def incremental_potential(model, force_weight: float) -> IncrementalPotential:
     terms.extend(contact_terms(model))
     if model.needs_friction:  # only where some μ > 0
         # ε_v·h with the scene's own h
-        terms.append(WeightedTerm(Friction(model.epsv * model.dt,
-                                           ramp_resolution=model.solver.friction_ramp_resolution)))
+        terms.append(WeightedTerm(Friction(
+            model.epsv * model.dt, ramp_resolution=model.solver.friction_ramp_resolution,
+            body=np.asarray(model.vertex_shape, dtype=np.int64))))
     return IncrementalPotential(tuple(terms))
 
 

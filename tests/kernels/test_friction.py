@@ -418,26 +418,52 @@ def test_friction_potential_empty_and_mu_zero():
     assert fr.value(X + u) == pytest.approx(0.5 * lam * 1e-3 / 3, rel=1e-10)
 
 
-def test_ramp_pairs_must_be_resolved_before_newton_stops():
-    """Friction.resolved: a pair whose slip is inside the static ramp (< ε) blocks
-    convergence while the direction still changes its slip by ≥ ramp_resolution·ε; a
-    sliding pair, a normal motion and a small tangential change do not."""
-    eps = 1e-3
+def _ground_pairs(eps, heights):
+    """Friction lagged for vertices at the given heights above the ground y = 0."""
     fr = Friction(eps)
-    x_lag = np.array([[0.0, 0.05, 0.0]])  # one vertex 0.05 above the ground
+    x_lag = np.array([[float(i), h, 0.0] for i, h in enumerate(heights)])
+    n = len(heights)
     fr.lag(x_lag, np.zeros((0, 4), np.int64), np.zeros((0, 4), np.int64), np.zeros(0),
-           np.array([0]), np.zeros((1, 3)), np.array([[0.0, 1.0, 0.0]]), np.array([0.5]),
+           np.arange(n), np.zeros((1, 3)), np.array([[0.0, 1.0, 0.0]]), np.array([0.5]),
            0.0, 10.0, 0.1)
-    assert fr.count == 1
+    assert fr.count == n
+    return fr, x_lag
 
-    def resolved(slip, step):
+
+def test_ramp_pairs_that_must_slide_are_resolved_before_newton_stops():
+    """Friction.resolved: a pair in the static ramp (slip y < ε) whose linearised friction
+    force along p reaches μλ (ρ = f1(y) + f1'(y)·Δy ≥ 1 along τ) blocks convergence while
+    p changes its slip by ≥ ramp_resolution·ε; a sticking pair (ρ < 1), a sliding pair,
+    a normal motion and a small tangential change do not."""
+    eps = 1e-3
+    fr, x_lag = _ground_pairs(eps, [0.05])
+
+    def resolved(slip, step, term=fr.term):
         x = x_lag + np.array([[slip, 0.0, 0.0]])
-        return fr.term.resolved(x, np.array([step]).reshape(-1), fr.ctx)
+        return term.resolved(x, np.array([step]).reshape(-1), fr.ctx)
 
-    assert not resolved(0.5 * eps, [0.2 * eps, 0.0, 0.0])  # in the ramp, still moving
-    assert not resolved(0.0, [0.0, 0.0, 0.15 * eps])  # from rest, sideways
-    assert resolved(0.5 * eps, [0.05 * eps, 0.0, 0.0])  # in the ramp, settled
+    # at y = ε/2: f1 = 3/4, f1' = 1/ε, so ρ = 3/4 + Δy/ε
+    assert not resolved(0.5 * eps, [0.3 * eps, 0.0, 0.0])  # ρ = 1.05: must slide
+    assert resolved(0.5 * eps, [0.2 * eps, 0.0, 0.0])  # ρ = 0.95: sticks
+    assert resolved(0.5 * eps, [-0.3 * eps, 0.0, 0.0])  # ρ = 0.45: held back
+    # from rest ρ = 2|Δ|/ε, in any tangential direction
+    assert not resolved(0.0, [0.0, 0.0, 0.6 * eps])
+    assert resolved(0.0, [0.0, 0.0, 0.4 * eps])
     assert resolved(0.5 * eps, [0.0, 0.3, 0.0])  # along the normal only
     assert resolved(2.0 * eps, [0.5 * eps, 0.0, 0.0])  # sliding: the plain test decides
-    assert FrictionTerm(eps, ramp_resolution=0.5).resolved(
-        x_lag + [[0.5 * eps, 0, 0]], np.array([0.2 * eps, 0, 0]), fr.ctx)
+    # ρ ≥ 1 but the slip changes by less than ramp_resolution·ε
+    assert resolved(0.5 * eps, [0.3 * eps, 0.0, 0.0], FrictionTerm(eps, ramp_resolution=0.5))
+
+
+def test_ramp_resolution_is_a_force_against_the_bodys_friction_capacity():
+    """Two equally loaded ground pairs, one of them at y = 0.9 ε pushed on by Δy = 0.15 ε
+    (ρ = 0.99 + 0.2·0.15 ≥ 1), the other still: on one body the change is 0.15 of the
+    capacity 2μλ·ε, below 0.1·2 = 0.2; if the pairs are two bodies it is 0.15 of its own
+    body's μλ·ε, above 0.1."""
+    eps = 1e-3
+    fr, x_lag = _ground_pairs(eps, [0.05, 0.05])
+    x = x_lag + np.array([[0.9 * eps, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    p = np.array([0.15 * eps, 0.0, 0.0, 0.0, 0.0, 0.0])
+    assert FrictionTerm(eps, body=np.array([0, 0])).resolved(x, p, fr.ctx)
+    assert not FrictionTerm(eps, body=np.array([0, 1])).resolved(x, p, fr.ctx)
+    assert not FrictionTerm(eps, body=np.array([0, 0])).resolved(x, 2.0 * p, fr.ctx)
