@@ -80,6 +80,8 @@ class Elasticity:
                              order="C", copy=True))
         if m and (tets.min() < 0 or tets.max() >= self.n_vertices):
             raise ValueError("tet vertex index out of range")
+        if 3 * self.n_vertices > np.iinfo(np.int32).max:  # the pattern's int32 DOFs
+            raise ValueError(f"{self.n_vertices} vertices: more than int32 DOF numbers hold")
         if not (0.0 <= self.min_volume_ratio < 1.0):
             raise ValueError("min_volume_ratio must lie in [0, 1)")
         put("min_volume_ratio", float(self.min_volume_ratio))

@@ -21,7 +21,7 @@ class Inertia:
     def __post_init__(self):
         mass = np.asarray(self.mass, dtype=float)
         object.__setattr__(self, "mass", mass)
-        dofs = np.arange(3 * len(mass), dtype=np.int64)
+        dofs = np.arange(3 * len(mass), dtype=np.int32)  # as every constant pattern
         dofs.flags.writeable = False  # read-only as elasticity's pattern: one kernel variant
         object.__setattr__(self, "_hessian", Triplets(dofs, dofs, np.repeat(mass, 3)))
 

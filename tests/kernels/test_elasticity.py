@@ -431,7 +431,7 @@ def test_hessian_layout_is_144_fixed_slots_per_tet():
     x = deformed(mesh, rng, "well_shaped")
     r, c, v = K.elastic_hessian(x, *mesh.args(), FCR, True)
     m = len(mesh.tets)
-    assert r.dtype == np.int64 and c.dtype == np.int64 and len(r) == len(c) == len(v) == 144 * m
+    assert r.dtype == np.int32 and c.dtype == np.int32 and len(r) == len(c) == len(v) == 144 * m
     dofs = (3 * mesh.tets[:, :, None] + np.arange(3)).reshape(m, 12)
     np.testing.assert_array_equal(r.reshape(m, 12, 12), np.broadcast_to(dofs[:, :, None], (m, 12, 12)))
     np.testing.assert_array_equal(c.reshape(m, 12, 12), np.broadcast_to(dofs[:, None, :], (m, 12, 12)))
