@@ -17,11 +17,14 @@ call (assembly keeps their sparsity pattern).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Callable, ClassVar, Protocol
 
 import numpy as np
 import scipy.sparse as sp
+
+from ..kernels import assembly as ka
 
 if TYPE_CHECKING:
     from ..contact.collisions import Collisions
@@ -45,13 +48,17 @@ class Triplets:
         return Triplets(z, z, np.zeros(0))
 
     @property
+    def size(self) -> int:
+        return len(self.rows)
+
+    @property
     def values(self) -> np.ndarray:
         """The entries' values, the scale applied."""
         return self.vals if self.scale == 1.0 else self.scale * self.vals
 
     @staticmethod
-    def concat(parts: list["Triplets"]) -> "Triplets":
-        parts = [p for p in parts if len(p.vals)]
+    def concat(parts: list) -> "Triplets":
+        parts = [p for p in parts if p.size]
         if not parts:
             return Triplets.empty()
         return Triplets(
@@ -66,6 +73,58 @@ class Triplets:
 
     def tocsr(self, n_dofs: int) -> sp.csr_matrix:
         return sp.csr_matrix((self.values, (self.rows, self.cols)), shape=(n_dofs, n_dofs))
+
+    def scatter_into(self, data, slots, free_index, p, coupling) -> None:
+        """data[slots[t]] += scale·vals[t] (a constant pattern's CSC slots, −1 where a row
+        or column is kinematic); free rows' entries in kinematic columns go to coupling."""
+        ka.scatter_into_pattern(data, slots, self.vals, self.scale, self.rows, self.cols,
+                                free_index, p, coupling)
+
+
+@dataclass(frozen=True, eq=False)
+class ElementHessian:
+    """A Hessian of per-element blocks on a constant pattern (``rows``, ``cols``: ``block``
+    entries per element, element after element), evaluated at ``x`` when it is used:
+    ``element_values(x, lo, hi)`` gives the entries of elements lo..hi−1. Assembly adds it
+    into the matrix ``CHUNK`` elements at a time, so the whole array of values (144 per
+    tet: 230 MB for 200 K tets) never exists; ``vals`` builds it for whoever asks."""
+
+    rows: np.ndarray
+    cols: np.ndarray
+    x: np.ndarray
+    element_values: Callable[[np.ndarray, int, int], np.ndarray]
+    n_elements: int
+    block: int
+    scale: float = 1.0
+    CHUNK: ClassVar[int] = 8192  # elements per evaluation: 9 MB of values for tets
+
+    @property
+    def size(self) -> int:
+        return len(self.rows)
+
+    @property
+    def vals(self) -> np.ndarray:
+        return self.element_values(self.x, 0, self.n_elements)
+
+    @property
+    def values(self) -> np.ndarray:
+        return self.vals if self.scale == 1.0 else self.scale * self.vals
+
+    def scaled(self, w: float) -> "ElementHessian":
+        return self if w == 1.0 else dataclasses.replace(self, scale=self.scale * w)
+
+    def tocsr(self, n_dofs: int) -> sp.csr_matrix:
+        return Triplets(self.rows, self.cols, self.values).tocsr(n_dofs)
+
+    def scatter_into(self, data, slots, free_index, p, coupling) -> None:
+        """As ``Triplets.scatter_into``, one chunk of elements at a time."""
+        b = self.block
+        for lo in range(0, self.n_elements, self.CHUNK):
+            hi = min(lo + self.CHUNK, self.n_elements)
+            part = slice(b * lo, b * hi)
+            ka.scatter_into_pattern(data, slots[part], self.element_values(self.x, lo, hi),
+                                    self.scale, self.rows[part], self.cols[part],
+                                    free_index, p, coupling)
 
 
 @dataclass(frozen=True, eq=False)

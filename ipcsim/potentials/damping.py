@@ -28,7 +28,8 @@ class Damping:
 
     def lag(self, x_start, elastic_hessian: Triplets) -> LaggedDamping:
         """D at the start of a step from the elastic term's Hessian there."""
-        triplets = elastic_hessian.scaled(self.scale)
+        h = elastic_hessian  # its values once, kept for the step
+        triplets = Triplets(h.rows, h.cols, h.vals, h.scale * self.scale)
         return LaggedDamping(x_start.copy(), triplets, triplets.tocsr(x_start.size))
 
     def value(self, x, ctx: StepContext):

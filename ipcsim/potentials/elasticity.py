@@ -24,7 +24,7 @@ from typing import ClassVar
 import numpy as np
 
 from ..kernels import elasticity as kern
-from .base import Triplets
+from .base import ElementHessian
 
 _MODELS = {
     "NH": kern.NEO_HOOKEAN,
@@ -85,7 +85,7 @@ class Elasticity:
         if not (0.0 <= self.min_volume_ratio < 1.0):
             raise ValueError("min_volume_ratio must lie in [0, 1)")
         put("min_volume_ratio", float(self.min_volume_ratio))
-        # the Hessian pattern never changes and is shared (read-only) by every Triplets returned
+        # the Hessian pattern never changes and is shared (read-only) by every Hessian returned
         rows, cols = kern.tet_hessian_pattern(tets)
         put("_rows", _frozen(rows))
         put("_cols", _frozen(cols))
@@ -110,9 +110,18 @@ class Elasticity:
     def gradient(self, x, ctx=None) -> np.ndarray:
         return kern.elastic_gradient(self._positions(x), *self._args())
 
-    def hessian(self, x, ctx=None, project_psd: bool = True) -> Triplets:
-        vals = kern.elastic_hessian_values(self._positions(x), *self._args(), bool(project_psd))
-        return Triplets(self._rows, self._cols, vals)
+    def hessian(self, x, ctx=None, project_psd: bool = True) -> ElementHessian:
+        """The tets' 12×12 blocks (PSD-projected unless told otherwise) at x, evaluated
+        chunk by chunk as they are assembled."""
+        x = self._positions(x).copy()  # the blocks are evaluated later, at this x
+        return ElementHessian(self._rows, self._cols, x,
+                              partial(self._block_values, bool(project_psd)), len(self.tets),
+                              144)
+
+    def _block_values(self, project_psd: bool, x, lo: int, hi: int) -> np.ndarray:
+        return kern.elastic_hessian_values(x, self.tets[lo:hi], self.Dm_inv[lo:hi],
+                                           self.volumes[lo:hi], self.lame[lo:hi], self.model,
+                                           project_psd)
 
     def max_step(self, x, p, ctx=None) -> float:
         if self.model != kern.NEO_HOOKEAN or len(self.tets) == 0:

@@ -62,8 +62,7 @@ class Assembler:
         data = np.zeros(len(pat.indices))
         coupling = np.zeros(n_free)
         for part, slots in zip(static_parts, pat.slots):
-            ka.scatter_into_pattern(data, slots, part.vals, part.scale, part.rows, part.cols,
-                                    free_index, p, coupling)
+            part.scatter_into(data, slots, free_index, p, coupling)
         if dynamic_parts:
             rows = np.concatenate([d.rows for d in dynamic_parts])
             cols = np.concatenate([d.cols for d in dynamic_parts])

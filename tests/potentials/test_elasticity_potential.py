@@ -9,8 +9,9 @@ import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ipcsim.potentials.base import Triplets
+from ipcsim.potentials.base import ElementHessian, Triplets
 from ipcsim.potentials.elasticity import Elasticity
+from ipcsim.solver.assembly import Assembler
 
 
 def box(n=2, jitter=0.1, seed=0):
@@ -87,7 +88,7 @@ def test_hessian_is_psd_triplets(energy):
     X, el = make(energy)
     x = squash(X, np.random.default_rng(2), (1.8, 0.6, 0.3))
     H = el.hessian(x)
-    assert isinstance(H, Triplets)
+    assert isinstance(H, ElementHessian) and H.block == 144 and H.n_elements == len(el.tets)
     assert H.rows.dtype == np.int32 and len(H.vals) == 144 * len(el.tets)  # compact pattern
     A = H.tocsr(x.size).toarray()
     assert np.abs(A - A.T).max() <= 1e-12 * np.abs(A).max()
@@ -179,3 +180,31 @@ def test_read_only_model_arrays_are_accepted():
     for f in (kern.elastic_energy, kern.elastic_gradient, kern.elastic_hessian_values, kern.max_step_no_inversion):
         # no read-only specialisation was compiled
         assert all(arg.mutable for sig in f.signatures for arg in sig if hasattr(arg, "ndim"))
+
+
+def test_element_hessian_assembles_chunk_by_chunk_as_its_values_do(monkeypatch):
+    """An ElementHessian (elasticity's) added into the matrix a few elements at a time,
+    with kinematic DOFs and a scale, equals the same values assembled as plain triplets."""
+    X, el = make("NH")
+    rng = np.random.default_rng(5)
+    x = squash(X, rng, (1.3, 0.8, 0.9))
+    H = el.hessian(x).scaled(2.5)
+    assert isinstance(H, ElementHessian) and H.n_elements > 7
+    monkeypatch.setattr(ElementHessian, "CHUNK", 7)  # several chunks and a ragged last one
+    n_dofs = x.size
+    kinematic = np.zeros(n_dofs, dtype=bool)
+    kinematic[rng.choice(n_dofs, 9, replace=False)] = True
+    free_index = np.full(n_dofs, -1)
+    free_index[~kinematic] = np.arange((~kinematic).sum())
+    p = rng.normal(size=n_dofs)
+    n_free = int((~kinematic).sum())
+    A, coupling = Assembler().assemble([H], [], free_index, n_free, p)
+    plain = Triplets(H.rows, H.cols, H.vals, H.scale)
+    A_ref, c_ref = Assembler().assemble([plain], [], free_index, n_free, p)
+    np.testing.assert_allclose(A.toarray(), A_ref.toarray(), rtol=1e-13, atol=1e-13)
+    np.testing.assert_allclose(coupling, c_ref, rtol=1e-13, atol=1e-13)
+    free = ~kinematic
+    H_ref = plain.tocsr(n_dofs).toarray()
+    np.testing.assert_allclose(A.toarray(), H_ref[np.ix_(free, free)], rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(coupling, H_ref[np.ix_(free, kinematic)] @ p[kinematic],
+                               rtol=1e-12, atol=1e-9)

@@ -37,3 +37,4 @@ def test_assembly_matches_reference_and_reuses_the_pattern():
             assert sp.issparse(A)
             np.testing.assert_allclose(A.toarray(), ref_A, rtol=1e-12, atol=1e-12)
             np.testing.assert_allclose(coupling, ref_c, rtol=1e-12, atol=1e-12)
+
