@@ -164,3 +164,29 @@ def scatter_into_pattern(data, slots, vals, scale, rows, cols, free_index, p, co
         r = free_index[rows[t]]
         if r >= 0:
             coupling[r] += v * p[cols[t]]
+
+
+@njit(cache=True)
+def scatter_element_blocks(data, slots, vals, scale, elements, free_index, p, coupling):
+    """scatter_into_pattern for per-element blocks: entry e·B + 3nv·i + j of vals (B =
+    (3nv)², nv = elements.shape[1]) couples DOF 3·elements[e, i // 3] + i % 3 with DOF
+    3·elements[e, j // 3] + j % 3; its row and column are only worked out for the entries
+    of kinematic columns (slot −1), whose product with p goes into the coupling."""
+    nd = 3 * elements.shape[1]
+    t = 0
+    for e in range(elements.shape[0]):
+        for i in range(nd):
+            r = -1  # the free row of local DOF i, found when a kinematic column needs it
+            for j in range(nd):
+                v = scale * vals[t]
+                s = slots[t]
+                t += 1
+                if s >= 0:
+                    data[s] += v
+                    continue
+                if r == -1:
+                    r = free_index[3 * elements[e, i // 3] + i % 3]
+                    if r < 0:
+                        r = -2  # a kinematic row: its entries are dropped
+                if r >= 0:
+                    coupling[r] += v * p[3 * elements[e, j // 3] + j % 3]

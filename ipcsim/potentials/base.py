@@ -52,6 +52,15 @@ class Triplets:
         return len(self.rows)
 
     @property
+    def pattern_key(self):
+        """What stays the same object while the pattern does (assembly keeps it)."""
+        return self.rows
+
+    def pattern_chunks(self):
+        """(rows, cols) in pieces that together cover every entry in order."""
+        yield self.rows, self.cols
+
+    @property
     def values(self) -> np.ndarray:
         """The entries' values, the scale applied."""
         return self.vals if self.scale == 1.0 else self.scale * self.vals
@@ -83,24 +92,48 @@ class Triplets:
 
 @dataclass(frozen=True, eq=False)
 class ElementHessian:
-    """A Hessian of per-element blocks on a constant pattern (``rows``, ``cols``: ``block``
-    entries per element, element after element), evaluated at ``x`` when it is used:
-    ``element_values(x, lo, hi)`` gives the entries of elements lo..hi−1. Assembly adds it
-    into the matrix ``CHUNK`` elements at a time, so the whole array of values (144 per
-    tet: 230 MB for 200 K tets) never exists; ``vals`` builds it for whoever asks."""
+    """A Hessian of per-element blocks on a constant pattern, evaluated at ``x`` when it
+    is used: ``element_values(x, lo, hi)`` gives the entries of elements lo..hi−1 (block
+    after block) and ``element_pattern(elements)`` their (rows, cols). Assembly builds the
+    pattern and adds the values ``CHUNK`` elements at a time, so neither the values nor
+    the index arrays of all blocks exist at once (144 of each per tet: 230 MB of values
+    and as much of indices for 200 K tets); ``rows``, ``cols`` and ``vals`` build them for
+    whoever asks."""
 
-    rows: np.ndarray
-    cols: np.ndarray
+    elements: np.ndarray  # (m, nv) vertex ids; the same array on every call
     x: np.ndarray
     element_values: Callable[[np.ndarray, int, int], np.ndarray]
-    n_elements: int
-    block: int
+    element_pattern: Callable[[np.ndarray], tuple]
     scale: float = 1.0
     CHUNK: ClassVar[int] = 8192  # elements per evaluation: 9 MB of values for tets
 
     @property
+    def n_elements(self) -> int:
+        return len(self.elements)
+
+    @property
+    def block(self) -> int:
+        return (3 * self.elements.shape[1]) ** 2
+
+    @property
     def size(self) -> int:
-        return len(self.rows)
+        return self.block * self.n_elements
+
+    @property
+    def pattern_key(self):
+        return self.elements
+
+    def pattern_chunks(self):
+        for lo in range(0, self.n_elements, self.CHUNK):
+            yield self.element_pattern(self.elements[lo:lo + self.CHUNK])
+
+    @property
+    def rows(self) -> np.ndarray:
+        return self.element_pattern(self.elements)[0]
+
+    @property
+    def cols(self) -> np.ndarray:
+        return self.element_pattern(self.elements)[1]
 
     @property
     def vals(self) -> np.ndarray:
@@ -113,18 +146,31 @@ class ElementHessian:
     def scaled(self, w: float) -> "ElementHessian":
         return self if w == 1.0 else dataclasses.replace(self, scale=self.scale * w)
 
+    def kept(self) -> "ElementHessian":
+        """The same Hessian with its values evaluated now and kept (damping's, for a step)."""
+        return dataclasses.replace(self, element_values=_KeptValues(self.vals, self.block))
+
     def tocsr(self, n_dofs: int) -> sp.csr_matrix:
-        return Triplets(self.rows, self.cols, self.values).tocsr(n_dofs)
+        rows, cols = self.element_pattern(self.elements)
+        return Triplets(rows, cols, self.values).tocsr(n_dofs)
 
     def scatter_into(self, data, slots, free_index, p, coupling) -> None:
         """As ``Triplets.scatter_into``, one chunk of elements at a time."""
         b = self.block
         for lo in range(0, self.n_elements, self.CHUNK):
             hi = min(lo + self.CHUNK, self.n_elements)
-            part = slice(b * lo, b * hi)
-            ka.scatter_into_pattern(data, slots[part], self.element_values(self.x, lo, hi),
-                                    self.scale, self.rows[part], self.cols[part],
-                                    free_index, p, coupling)
+            ka.scatter_element_blocks(data, slots[b * lo:b * hi],
+                                      self.element_values(self.x, lo, hi), self.scale,
+                                      self.elements[lo:hi], free_index, p, coupling)
+
+
+@dataclass(frozen=True, eq=False)
+class _KeptValues:
+    vals: np.ndarray
+    block: int
+
+    def __call__(self, x, lo: int, hi: int) -> np.ndarray:
+        return self.vals[self.block * lo:self.block * hi]
 
 
 @dataclass(frozen=True, eq=False)
@@ -132,7 +178,7 @@ class LaggedDamping:
     """Rayleigh damping frozen at the start of a step: D = (k/h)·w∇²Ψ(xₙ)."""
 
     x_start: np.ndarray  # (n, 3) xₙ
-    triplets: Triplets  # D as triplets (the elastic Hessian's pattern)
+    triplets: "ElementHessian"  # D as blocks on the elastic Hessian's pattern, values kept
     matrix: sp.csr_matrix  # D, for the value and the gradient
 
 

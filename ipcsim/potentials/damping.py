@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
-from .base import LaggedDamping, StepContext, Triplets
+from .base import ElementHessian, LaggedDamping, StepContext
 
 
 @dataclass(frozen=True, eq=False)
@@ -26,10 +26,9 @@ class Damping:
     def of(stiffness: float, h: float, elastic_weight: float) -> "Damping":
         return Damping(stiffness / h * elastic_weight)
 
-    def lag(self, x_start, elastic_hessian: Triplets) -> LaggedDamping:
+    def lag(self, x_start, elastic_hessian: ElementHessian) -> LaggedDamping:
         """D at the start of a step from the elastic term's Hessian there."""
-        h = elastic_hessian  # its values once, kept for the step
-        triplets = Triplets(h.rows, h.cols, h.vals, h.scale * self.scale)
+        triplets = elastic_hessian.kept().scaled(self.scale)  # evaluated once per step
         return LaggedDamping(x_start.copy(), triplets, triplets.tocsr(x_start.size))
 
     def value(self, x, ctx: StepContext):

@@ -34,11 +34,6 @@ _MODELS = {
 }
 
 
-def _frozen(a: np.ndarray) -> np.ndarray:
-    a.setflags(write=False)
-    return a
-
-
 @dataclass(frozen=True, eq=False)
 class Elasticity:
     """Elastic energy of m tets over n vertices.
@@ -58,8 +53,6 @@ class Elasticity:
     name: ClassVar[str] = "elasticity"
     constant_pattern: ClassVar[bool] = True  # same triplet index arrays on every call
     model: int = field(init=False, repr=False)
-    _rows: np.ndarray = field(init=False, repr=False)
-    _cols: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self):
         key = str(self.energy).replace("-", "").replace("_", "").replace(" ", "").upper()
@@ -85,10 +78,6 @@ class Elasticity:
         if not (0.0 <= self.min_volume_ratio < 1.0):
             raise ValueError("min_volume_ratio must lie in [0, 1)")
         put("min_volume_ratio", float(self.min_volume_ratio))
-        # the Hessian pattern never changes and is shared (read-only) by every Hessian returned
-        rows, cols = kern.tet_hessian_pattern(tets)
-        put("_rows", _frozen(rows))
-        put("_cols", _frozen(cols))
 
     def _positions(self, x) -> np.ndarray:
         x = np.ascontiguousarray(x, dtype=np.float64).reshape(-1, 3)
@@ -114,9 +103,8 @@ class Elasticity:
         """The tets' 12×12 blocks (PSD-projected unless told otherwise) at x, evaluated
         chunk by chunk as they are assembled."""
         x = self._positions(x).copy()  # the blocks are evaluated later, at this x
-        return ElementHessian(self._rows, self._cols, x,
-                              partial(self._block_values, bool(project_psd)), len(self.tets),
-                              144)
+        return ElementHessian(self.tets, x, partial(self._block_values, bool(project_psd)),
+                              kern.tet_hessian_pattern)
 
     def _block_values(self, project_psd: bool, x, lo: int, hi: int) -> np.ndarray:
         return kern.elastic_hessian_values(x, self.tets[lo:hi], self.Dm_inv[lo:hi],

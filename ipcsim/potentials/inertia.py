@@ -21,8 +21,7 @@ class Inertia:
     def __post_init__(self):
         mass = np.asarray(self.mass, dtype=float)
         object.__setattr__(self, "mass", mass)
-        dofs = np.arange(3 * len(mass), dtype=np.int32)  # as every constant pattern
-        dofs.flags.writeable = False  # read-only as elasticity's pattern: one kernel variant
+        dofs = np.arange(3 * len(mass), dtype=np.int32)  # as elasticity's: one kernel variant
         object.__setattr__(self, "_hessian", Triplets(dofs, dofs, np.repeat(mass, 3)))
 
     def value(self, x, ctx: StepContext):

@@ -28,25 +28,35 @@ class _StaticPattern:
     what is kept is one int32 slot per triplet (−1 for kinematic rows or columns)."""
 
     def __init__(self, parts, free_index, n_free):
-        self.refs = [(p.rows, p.cols) for p in parts]
+        self.keys = [p.pattern_key for p in parts]
         self.free_index = free_index
         counts = np.zeros(n_free + 1, dtype=np.int64)
         for p in parts:
-            ka.count_free_columns(p.rows, p.cols, free_index, counts)
+            for rows, cols in p.pattern_chunks():
+                ka.count_free_columns(rows, cols, free_index, counts)
         start = np.cumsum(counts)
         bucket = np.empty(int(start[-1]), dtype=np.int32)
         fill = start[:-1].copy()
         for p in parts:
-            ka.bucket_rows(p.rows, p.cols, free_index, fill, bucket)
+            for rows, cols in p.pattern_chunks():
+                ka.bucket_rows(rows, cols, free_index, fill, bucket)
         self.indptr, self.indices = ka.unique_column_rows(start, bucket)
         del bucket
-        self.slots = [ka.csc_slots(p.rows, p.cols, free_index, self.indptr, self.indices)
-                      for p in parts]
+        self.slots = [self._slots(p) for p in parts]
         self.n_free = n_free
 
+    def _slots(self, part) -> np.ndarray:
+        slots = np.empty(part.size, dtype=np.int32)
+        at = 0
+        for rows, cols in part.pattern_chunks():
+            slots[at:at + len(rows)] = ka.csc_slots(rows, cols, self.free_index, self.indptr,
+                                                    self.indices)
+            at += len(rows)
+        return slots
+
     def matches(self, parts, free_index) -> bool:
-        return (free_index is self.free_index and len(parts) == len(self.refs)
-                and all(p.rows is r and p.cols is c for p, (r, c) in zip(parts, self.refs)))
+        return (free_index is self.free_index and len(parts) == len(self.keys)
+                and all(p.pattern_key is k for p, k in zip(parts, self.keys)))
 
 
 class Assembler:
