@@ -95,6 +95,17 @@ def build_collisions(mesh: CollisionMesh, x: np.ndarray, dhat: float) -> Collisi
     return Collisions(pt, ee, _mollifier_thresholds(mesh, ee), distances)
 
 
+def narrowed_collisions(swept: Collisions, x: np.ndarray, dhat: float) -> Collisions:
+    """``build_collisions`` at x, taken from a set swept over a motion that passes
+    through x (a point x0 + α(x1 − x0) of it, α in [0, 1], computed as x0 + α·p): the
+    swept boxes hold x's boxes, so the pairs whose boxes overlap at x are all there, and
+    the same box test keeps exactly those, without a new BVH query. Only the order of
+    the pairs may differ from a fresh query's."""
+    near = swept.within_motion(x, x, dhat)
+    return Collisions(near.pt, near.ee, near.ee_eps_x,
+                      PairDistances(*classify_and_distance(x, near.pt, near.ee)))
+
+
 def swept_collisions(mesh: CollisionMesh, x0: np.ndarray, x1: np.ndarray,
                      dhat: float) -> Collisions:
     """Every pair that may come within d̂ while the vertices move linearly x0 -> x1."""

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..contact.ccd import line_search_bound, unbounded_step
-from ..contact.collisions import Collisions, build_collisions
+from ..contact.collisions import Collisions, build_collisions, narrowed_collisions
 from ..contact.friction_lag import FrictionLag, lag_friction
 from ..contact.setup import ContactCount, ContactSetup
 from ..contact.stiffness import BarrierStiffness
@@ -61,6 +61,13 @@ class LineSearch:
     def energy(self, alpha: float) -> float:
         return self.energy_at(self.x + alpha * self.p3)
 
+    def point(self, alpha: float) -> np.ndarray:
+        """x + αp, remembered by the objective as a point of this segment: its collision
+        set is then narrowed from the pairs swept here instead of queried again."""
+        y = self.x + alpha * self.p3
+        self.objective._on_segment = (y, self.ctx.collisions)
+        return y
+
     def energy_at(self, y: np.ndarray) -> float:
         """E at a point of the segment (e.g. one whose kinematic rows were snapped onto
         their targets)."""
@@ -79,6 +86,8 @@ class StepObjective:
         self.timer = timer
         self.last_ccd_alpha = 1.0  # CCD's α at this step's previous line search
         self._collisions_at: tuple[np.ndarray, Collisions] | None = None
+        # (y, swept set): the last point Newton took along a line search, and its pairs
+        self._on_segment: tuple[np.ndarray, Collisions | None] | None = None
 
     # -- what Newton reads -----------------------------------------------------------------
     @property
@@ -151,7 +160,11 @@ class StepObjective:
         kept = self._collisions_at
         if kept is not None and np.array_equal(kept[0], x):
             return kept[1]
-        collisions = build_collisions(self.contact.mesh, x, self.contact.dhat)
+        on = self._on_segment
+        if on is not None and on[0] is x and on[1] is not None:
+            collisions = narrowed_collisions(on[1], x, self.contact.dhat)
+        else:
+            collisions = build_collisions(self.contact.mesh, x, self.contact.dhat)
         self._collisions_at = (x.copy(), collisions)
         return collisions
 

@@ -191,9 +191,10 @@ class NewtonSolver:
             alpha, failed, energy = self._backtrack(line, alpha, energy, it)
             if failed:
                 return x, 0.0, energy, True
-        x_new = x + alpha * line.p3
+        x_new = line.point(alpha)
         if alpha == 1.0 and remaining > 0.0:
             kinematic = objective.kinematic
+            x_new = x_new.copy()  # no longer a point of the segment
             x_new[kinematic] = objective.target[kinematic]  # land exactly on the targets
         if not run.kinematic_complete:
             energy = line.energy_at(x_new)

@@ -9,7 +9,7 @@ import pytest
 
 from ipcsim.contact.ccd import line_search_bound
 from ipcsim.contact.collision_mesh import CollisionMesh
-from ipcsim.contact.collisions import build_collisions, swept_collisions
+from ipcsim.contact.collisions import build_collisions, narrowed_collisions, swept_collisions
 from ipcsim.contact.intersection import find_intersections
 from ipcsim.model.builder import build_model
 from ipcsim.model.generate import box_tet_mesh, write_msh
@@ -64,3 +64,29 @@ def test_a_direction_free_beyond_the_short_sweep_is_swept_whole(falling_cube):
     away = np.zeros_like(x)
     away[model.vertex_shape == 1] = [0.0, 2.0, 0.0]  # straight up, nothing in the way
     assert line_search_bound(mesh, x, away, DHAT, previous_alpha=small).alpha == 1.0
+
+
+def _rows(a):
+    return sorted(map(tuple, np.asarray(a).tolist()))
+
+
+def test_the_set_narrowed_from_a_sweep_is_the_query_at_each_point_of_it(falling_cube):
+    """At points x + αp of a line search's segment (α up to the CCD bound, and the
+    halvings below it), the collision set narrowed from the swept pairs has exactly the
+    pairs, thresholds and distances of a fresh query there."""
+    model, x, p = falling_cube
+    mesh = CollisionMesh.from_model(model)
+    bound = line_search_bound(mesh, x, p, DHAT)
+    checked = 0
+    for alpha in (bound.alpha, 0.5 * bound.alpha, 0.3 * bound.alpha, 1e-3 * bound.alpha, 0.0):
+        y = x + alpha * p
+        fresh = build_collisions(mesh, y, DHAT)
+        narrowed = narrowed_collisions(bound.collisions, y, DHAT)
+        assert _rows(narrowed.pt) == _rows(fresh.pt) and _rows(narrowed.ee) == _rows(fresh.ee)
+        by_row = dict(zip(map(tuple, fresh.ee.tolist()), fresh.ee_eps_x))
+        assert all(by_row[tuple(r)] == e for r, e in zip(narrowed.ee.tolist(), narrowed.ee_eps_x))
+        assert sorted(narrowed.distances.pt_d2) == sorted(fresh.distances.pt_d2)
+        assert sorted(narrowed.distances.ee_d2) == sorted(fresh.distances.ee_d2)
+        assert narrowed.count(DHAT) == fresh.count(DHAT)
+        checked += len(fresh)
+    assert checked > 0  # the segment passes pairs within d̂
