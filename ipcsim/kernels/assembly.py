@@ -21,8 +21,8 @@ def add_triplets(indptr, indices, data, rows, cols, vals, free_index, p, couplin
     added in place."""
     n = indptr.shape[0] - 1
     keys, kept = _free_keys(rows, cols, vals, free_index, p, coupling, n)
-    order = np.argsort(keys, kind="mergesort")  # stable: duplicates summed in order
-    t_col, t_row, t_val = _summed(keys[order], kept[order], n)
+    keys, kept = _stable_sort_by_key(keys, kept, n)  # duplicates are summed in order
+    t_col, t_row, t_val = _summed(keys, kept, n)
     out_ptr = np.zeros(n + 1, dtype=np.int32)  # int32 as scipy keeps it (sizes < 2³¹)
     out_idx = np.empty(indices.shape[0] + t_col.shape[0], dtype=np.int32)
     out_val = np.empty(indices.shape[0] + t_col.shape[0], dtype=np.float64)
@@ -68,6 +68,34 @@ def _free_keys(rows, cols, vals, free_index, p, coupling, n):
         kept[k] = vals[t]
         k += 1
     return keys[:k], kept[:k]
+
+
+@njit(cache=True)
+def _stable_sort_by_key(keys, vals, n):
+    """keys (col·n + row) and vals in the order of a stable sort by key: a counting sort
+    by column, then a stable sort of each column's rows. The same order as one stable
+    sort of all keys, without sorting millions of keys at once (contact triplets)."""
+    m = keys.shape[0]
+    start = np.zeros(n + 1, dtype=np.int64)
+    for t in range(m):
+        start[keys[t] // n + 1] += 1
+    for c in range(n):
+        start[c + 1] += start[c]
+    fill = start[:-1].copy()
+    sorted_keys = np.empty(m, dtype=np.int64)
+    sorted_vals = np.empty(m, dtype=np.float64)
+    for t in range(m):
+        c = keys[t] // n
+        sorted_keys[fill[c]] = keys[t]
+        sorted_vals[fill[c]] = vals[t]
+        fill[c] += 1
+    for c in range(n):
+        lo, hi = start[c], start[c + 1]
+        if hi - lo > 1:
+            order = np.argsort(sorted_keys[lo:hi], kind="mergesort")
+            sorted_keys[lo:hi] = sorted_keys[lo:hi][order]
+            sorted_vals[lo:hi] = sorted_vals[lo:hi][order]
+    return sorted_keys, sorted_vals
 
 
 @njit(cache=True)
