@@ -129,7 +129,7 @@ def _add_run(sub) -> None:
     p = sub.add_parser("run", help="simulate a scene and write frames and logs",
                        description="Simulate a scene and write frames and logs. Shows a "
                        "progress bar on a terminal and a line every 5 % of the steps (or "
-                       "30 s) otherwise. Ctrl-C stops after the current step (exit status "
+                       "30 s) otherwise. Ctrl-C or SIGTERM stops after the current step (exit status "
                        "130); --resume continues. Exit status: 0 done, 2 bad input or an "
                        "output folder that cannot be used or written, 3 the simulation "
                        "failed (NaN, solver), 130 interrupted.")

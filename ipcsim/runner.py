@@ -100,28 +100,33 @@ def frame_interval_for(scene) -> int:
 
 
 class StopRequest:
-    """The first Ctrl-C asks the run to stop after the current step; a second one stops
-    at once (KeyboardInterrupt: the folder is still resumable from the last frame)."""
+    """The first Ctrl-C (SIGINT) or SIGTERM (a batch scheduler's, ``timeout``'s) asks the
+    run to stop after the current step; a second one stops at once (KeyboardInterrupt:
+    the folder is still resumable from the last frame)."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
     def __init__(self):
         self.requested = False
-        self._previous = None
+        self._previous = {}
 
     def _handle(self, signum, frame):
         if self.requested:
             raise KeyboardInterrupt
         self.requested = True
-        print("\nipcsim: stopping after this step (Ctrl-C again to stop at once)",
+        again = "Ctrl-C" if signum == signal.SIGINT else "the signal"
+        print(f"\nipcsim: stopping after this step ({again} again to stop at once)",
               file=sys.stderr, flush=True)
 
     def __enter__(self):
         if threading.current_thread() is threading.main_thread():
-            self._previous = signal.signal(signal.SIGINT, self._handle)
+            self._previous = {s: signal.signal(s, self._handle) for s in self.SIGNALS}
         return self
 
     def __exit__(self, *exc):
-        if self._previous is not None:
-            signal.signal(signal.SIGINT, self._previous)
+        for s, previous in self._previous.items():
+            signal.signal(s, previous)
+        self._previous = {}
 
 
 def build(spec, warn=_to_stderr):

@@ -4,6 +4,7 @@ status 3 naming the step and the term."""
 
 from __future__ import annotations
 
+import json
 import signal
 import subprocess
 import sys
@@ -95,6 +96,25 @@ def test_killed_interrupted_and_resumed_run_equals_an_uninterrupted_one(stacked_
     newton, ref_newton = read_csv(out / "newton.csv"), read_csv(reference / "newton.csv")
     assert np.array_equal(newton["step"], ref_newton["step"])
     assert np.array_equal(newton["kappa"], ref_newton["kappa"])
+
+
+def test_sigterm_stops_after_the_current_step_like_ctrl_c(stacked_cubes, tmp_path):
+    """A scheduler's SIGTERM is a request to stop: the step finishes, run.json records
+    the interruption, exit status 130, and --resume finishes the run."""
+    out = tmp_path / "terminated"
+    proc = _start(stacked_cubes, out)
+    _wait_for_rows(proc, out, 5)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=240)
+    assert proc.returncode == 130, err.decode()
+    assert b"--resume" in err and b"Traceback" not in err
+    stopped_at = _rows(out)
+    assert 5 <= stopped_at < STEPS
+    info = json.loads((out / "run.json").read_text())
+    assert info["steps_done"] == stopped_at and info["status"] != "ok"
+    assert main(["run", str(stacked_cubes), "-o", str(out), "-q", "--steps", str(STEPS),
+                 "--resume"]) == 0
+    assert _rows(out) == STEPS
 
 
 def test_resume_refuses_a_different_scene_and_a_folder_without_checkpoint(stacked_cubes,
