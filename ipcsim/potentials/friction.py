@@ -12,7 +12,8 @@ stiffness ~ 2μλ/ε: there a Newton step is tiny even far from the solution, an
 tol cannot tell a pair that sticks from one that must start sliding. ``resolved`` is the
 extra stopping test for the second kind: a ramp pair whose linearised friction force
 along p exceeds μλ (it must slide) blocks convergence while p still changes its slip by
-``ramp_resolution``·ε or more, measured in force against its body's most loaded pair.
+``ramp_resolution``·ε or more, summed in force over its body's ramp pairs and
+measured against the body's whole friction capacity Σ μλ.
 Without it a body that should start sliding stops inside the ramp at every step and
 creeps at ε_v instead (at the default tolerance, slopeTest_highSchoolPhysics_0.49 without
 its ``tol`` line moves 1.3 mm instead of 0.27 m); a ramp softens towards y = ε
@@ -74,7 +75,8 @@ class Friction:
     def resolved(self, x, p, ctx: StepContext) -> bool:
         """False while some pair in the static ramp (slip < ε at x) must slide (the
         direction p (3n,) asks more than μλ of it) and p still changes its slip by
-        ramp_resolution·ε or more (in force, against its body's most loaded pair)."""
+        ramp_resolution·ε or more (summed in force over its body's pairs, against the
+        body's friction capacity Σ μλ)."""
         f = ctx.friction
         if f is None or f.count == 0:
             return True

@@ -65,7 +65,7 @@ class LineSearch:
         """x + αp, remembered by the objective as a point of this segment: its collision
         set is then narrowed from the pairs swept here instead of queried again."""
         y = self.x + alpha * self.p3
-        self.objective._on_segment = (y, self.ctx.collisions)
+        self.objective.took(y, self.ctx.collisions)
         return y
 
     def energy_at(self, y: np.ndarray) -> float:
@@ -153,6 +153,10 @@ class StepObjective:
         return self.potential.nonfinite_terms(x, ctx, p)
 
     # -- refreshes ---------------------------------------------------------------------------
+    def took(self, y: np.ndarray, swept: Collisions | None) -> None:
+        """Newton takes y, a point of a line search that swept the pairs ``swept``."""
+        self._on_segment = (y, swept)
+
     def collisions(self, x: np.ndarray) -> Collisions | None:
         """The collision set at x (kept for the next call at equal positions)."""
         if self.contact.mesh is None:
