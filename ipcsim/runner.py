@@ -377,12 +377,17 @@ def _run_info(run: _Run, status: int, failure, wall0: float, started: str) -> No
 
     from .io.csv_log import StepLog, read_csv
     from .io.run_info import RUN_INFO_NAME, now_iso, peak_memory_mb, write_run_info
+    from .kernels import aot
+    from .kernels.compiling import compile_seconds
 
     out = run.out
     info = {"scene": run.scene_name, "output": str(out), "started": started,
             "modelled_terms": list(run.model.terms),
             "linear_solver": run.sim.linear_solver.name, "steps_planned": run.n_steps,
-            "inputs_sha256": run.digest}
+            "inputs_sha256": run.digest,
+            "kernels": {"compiled_ahead_of_time": aot.compiled_folder() is not None,
+                        "run_by_numba": aot.jit_kernels(),
+                        "numba_compile_s": compile_seconds()}}
     if run.reporter.command:  # else write_run_info's own (this process's arguments)
         info["command"] = list(run.reporter.command)
     if run.scene.overrides:

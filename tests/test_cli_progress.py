@@ -78,10 +78,11 @@ def test_the_time_left_leaves_out_compiling(monkeypatch):
 
 def test_a_compiling_run_says_so_once(capsys):
     from ipcsim.kernels import compiling
+    from ipcsim.kernels.jit import numba_module
 
     said = []
     compiling.when_compiling_starts(lambda: said.append(1))
-    from numba import njit
+    njit = numba_module().njit  # numba as ipcsim loads it: with the compile clock listening
 
     @njit  # not cached: always compiles
     def twice(x):

@@ -10,7 +10,7 @@ column; triplets of a free row and a kinematic column go into the coupling H_fk 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from ipcsim.kernels.jit import njit
 
 
 @njit(cache=True)

@@ -9,7 +9,7 @@ Derivatives are with respect to s.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from ipcsim.kernels.jit import njit
 
 
 @njit(cache=True)

@@ -32,7 +32,7 @@ when both are kinematic.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from ipcsim.kernels.jit import njit, prange
 
 from ipcsim.kernels.twin import kernel
 

@@ -59,9 +59,10 @@ Degenerate triangles (collinear vertices) are measured by their three edges.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from ipcsim.kernels.jit import njit, prange
 
-from ipcsim.kernels import distance as _d
+from ipcsim.kernels.distance import edge_edge_distance_sq as ee_distance_sq_of_points
+from ipcsim.kernels.distance import point_triangle_distance_sq as pt_distance_sq_of_points
 from ipcsim.kernels.twin import running_parallel
 
 DEFAULT_MIN_GAP_FRACTION = 0.1
@@ -87,7 +88,7 @@ def point_triangle_distance_sq(q):
     """``distance.point_triangle_distance_sq`` (closest feature chosen automatically) of
     the stencil q = (p, t0, t1, t2) given as one (4, 3) array."""
     p, t0, t1, t2 = _rows(q)
-    return _d.point_triangle_distance_sq(p, t0, t1, t2)
+    return pt_distance_sq_of_points(p, t0, t1, t2)
 
 
 @njit(cache=True)
@@ -95,7 +96,7 @@ def edge_edge_distance_sq(q):
     """``distance.edge_edge_distance_sq`` (closest feature chosen automatically) of the
     stencil q = (ea0, ea1, eb0, eb1) given as one (4, 3) array."""
     a0, a1, b0, b1 = _rows(q)
-    return _d.edge_edge_distance_sq(a0, a1, b0, b1)
+    return ee_distance_sq_of_points(a0, a1, b0, b1)
 
 
 @njit(cache=True)
@@ -128,8 +129,8 @@ def _distance_at(q0, dq, t, is_pt):
     c = _point_at(q0, dq, t, 2)
     d = _point_at(q0, dq, t, 3)
     if is_pt:
-        return np.sqrt(_d.point_triangle_distance_sq(a, b, c, d))
-    return np.sqrt(_d.edge_edge_distance_sq(a, b, c, d))
+        return np.sqrt(pt_distance_sq_of_points(a, b, c, d))
+    return np.sqrt(ee_distance_sq_of_points(a, b, c, d))
 
 
 @njit(cache=True)

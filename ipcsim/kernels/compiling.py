@@ -2,19 +2,18 @@
 
 numba compiles a kernel on its first call unless its cache (beside the sources) holds it
 for this machine; only a first run after installing (or after the kernels changed) pays.
-The clock listens to numba's ``numba:compile`` events, which fire on cache misses only, so
-a run can leave compile time out of its time-left estimate and say once why a first step
-is slow.
+Kernels compiled ahead of time (``aot.py``) never compile. The clock listens to numba's
+``numba:compile`` events, which fire on cache misses only, once numba is imported
+(``jit.numba_module`` calls ``listen``), so a run can leave compile time out of its
+time-left estimate and say once why a first step is slow.
 """
 
 from __future__ import annotations
 
 import time
 
-from numba.core import event as _event
 
-
-class _CompileClock(_event.Listener):
+class _CompileClock:
     def __init__(self):
         self.depth = 0
         self.seconds = 0.0
@@ -36,7 +35,20 @@ class _CompileClock(_event.Listener):
 
 
 _clock = _CompileClock()
-_event.register("numba:compile", _clock)
+
+
+def listen(numba) -> None:
+    """Start the clock on numba's compile events (numba just imported)."""
+    from numba.core import event
+
+    class Listener(event.Listener):
+        def on_start(self, e):
+            _clock.on_start(e)
+
+        def on_end(self, e):
+            _clock.on_end(e)
+
+    event.register("numba:compile", Listener())
 
 
 def compile_seconds() -> float:

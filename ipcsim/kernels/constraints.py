@@ -29,7 +29,7 @@ gradient: a constraint that always holds.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from ipcsim.kernels.jit import njit, prange
 
 VOLUME, GAP, VERSCHOOR = 0, 1, 2
 INACTIVE = 1e28  # the value of a constraint that cannot be formed (as the original)

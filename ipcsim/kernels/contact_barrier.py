@@ -19,7 +19,7 @@ Global DOF of vertex i, axis a is 3i + a.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from ipcsim.kernels.jit import njit, prange
 
 from ipcsim.kernels.barrier import barrier, barrier_and_derivatives
 from ipcsim.kernels.distance import (

@@ -40,7 +40,7 @@ accurate when the point is close to the line/plane; det M = |cross product|² (L
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from ipcsim.kernels.jit import njit
 
 from ipcsim.kernels.linalg import cross3, dot3, scale3, squared_norm3, sub3, symmetrize_from_upper
 

@@ -51,7 +51,7 @@ point on the safe side of the root.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from ipcsim.kernels.jit import njit, prange
 
 from ipcsim.kernels.linalg import cofactor3, det3, tet_edge_matrix
 from ipcsim.kernels.scatter import scatter_local_gradients

@@ -35,7 +35,7 @@ Lagged data layout (one row per frictional pair, m rows):
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from ipcsim.kernels.jit import njit, prange
 
 from ipcsim.kernels.barrier import barrier_first_derivative
 from ipcsim.kernels.contact_barrier import classify_and_distance

@@ -55,7 +55,7 @@ import math
 from itertools import permutations
 
 import numpy as np
-from numba import njit
+from ipcsim.kernels.jit import njit
 
 from ipcsim.kernels.broad_phase import build_bvh, primitive_boxes, query_bvh
 from ipcsim.kernels.linalg import tet_signed_volumes

@@ -10,7 +10,7 @@ raising a Python exception inside a parallel loop.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from ipcsim.kernels.jit import njit
 
 
 # 3-vectors are passed as anything indexable (array rows or tuples) and returned as

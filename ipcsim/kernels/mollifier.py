@@ -14,7 +14,7 @@ m is C¹ at c = ε (m = 1, m' = 0) and m(0) = 0. Derivatives w.r.t. the 12 edge-
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from ipcsim.kernels.jit import njit
 
 from ipcsim.kernels.linalg import cross3, dot3, squared_norm3, sub3
 

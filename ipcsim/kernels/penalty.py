@@ -24,7 +24,7 @@ the block of its closest feature). Planes: ∇P = −k (d̂ − d) n, ∇²P = k
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from ipcsim.kernels.jit import njit, prange
 
 from ipcsim.kernels.contact_barrier import (
     HESSIAN_BLOCK,

@@ -11,7 +11,7 @@ The Hessian is rank one, so its PSD projection just clamps the scalar coefficien
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from ipcsim.kernels.jit import njit, prange
 
 from .barrier import barrier, barrier_first_derivative, barrier_second_derivative
 from .twin import kernel

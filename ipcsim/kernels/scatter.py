@@ -9,7 +9,7 @@ deterministic (the local gradients themselves are computed in parallel by the ca
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from ipcsim.kernels.jit import njit
 
 
 @njit(cache=True)

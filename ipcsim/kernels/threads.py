@@ -8,7 +8,8 @@ to be installed.
 * Count: one thread for small problems, where a parallel launch costs more than it saves;
   otherwise the cores that other processes leave idle (the cores this process may use,
   less the 1-minute load average). On one thread the kernels' serial variants run and
-  are the only ones compiled (``twin.py``), and numba's thread pool is never started.
+  are the only ones compiled (``twin.py``), or none at all where they were compiled
+  ahead of time (``aot.py``), and numba's thread pool is never started.
 
 ``NUMBA_THREADING_LAYER`` and ``NUMBA_NUM_THREADS`` set by the user win, and
 ``IPCSIM_THREADS`` fixes the count.
@@ -19,8 +20,6 @@ from __future__ import annotations
 import os
 import warnings
 
-import numba
-
 from .twin import run_parallel
 
 # Below this many vertices a scene runs on one thread (docs/benchmarks.md, "threads").
@@ -29,9 +28,13 @@ PARALLEL_FROM_VERTICES = 5000
 _layer_chosen = False
 
 
-def choose_layer() -> str:
-    """Set numba's threading layer (once, before any parallel kernel runs)."""
+def choose_layer(numba=None) -> str:
+    """Set numba's threading layer (once, before any parallel kernel runs); numba is
+    imported here if it was not yet."""
     global _layer_chosen
+    if numba is None:
+        from .jit import numba_module
+        numba = numba_module()  # which chooses the layer
     if not _layer_chosen and "NUMBA_THREADING_LAYER" not in os.environ:
         try:
             from numba.np.ufunc import omppool  # noqa: F401  (needs libgomp)
@@ -40,6 +43,17 @@ def choose_layer() -> str:
             numba.config.THREADING_LAYER = "workqueue"
         _layer_chosen = True
     return numba.config.THREADING_LAYER
+
+
+def max_threads() -> int:
+    """numba's thread count limit: ``NUMBA_NUM_THREADS``, or the CPUs this process may
+    run on (numba's default, read without importing numba)."""
+    fixed = os.environ.get("NUMBA_NUM_THREADS", "").strip()
+    if fixed.isdecimal() and int(fixed) > 0:
+        return int(fixed)
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0)))
+    return os.cpu_count() or 1
 
 
 def idle_cores() -> int:
@@ -57,19 +71,22 @@ def threads_for(n_vertices: int) -> int:
     fixed = os.environ.get("IPCSIM_THREADS", "").strip()
     if fixed:
         if fixed.isdecimal() and int(fixed) > 0:
-            return min(int(fixed), numba.config.NUMBA_NUM_THREADS)
+            return min(int(fixed), max_threads())
         warnings.warn(f"IPCSIM_THREADS={fixed[:20]!r} is not a positive integer; ignored",
                       stacklevel=2)
     if n_vertices < PARALLEL_FROM_VERTICES:
         return 1
-    return min(idle_cores(), numba.config.NUMBA_NUM_THREADS)
+    return min(idle_cores(), max_threads())
 
 
 def use_threads(n_vertices: int) -> int:
-    """Choose the layer and set the thread count for a problem of n_vertices."""
-    choose_layer()
+    """Set the thread count for a problem of n_vertices (on more than one, numba and its
+    threading layer are loaded now)."""
     n = threads_for(n_vertices)
     run_parallel(n > 1)
-    if n > 1 and n != numba.get_num_threads():
-        numba.set_num_threads(n)
+    if n > 1:
+        from .jit import numba_module
+        numba = numba_module()
+        if n != numba.get_num_threads():
+            numba.set_num_threads(n)
     return n

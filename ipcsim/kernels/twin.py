@@ -13,9 +13,9 @@ and differ in name only in numba's cache (``<name>_serial``, ``<name>_parallel``
 from __future__ import annotations
 
 import functools
-import types
 
-from numba import njit
+from . import aot
+from .jit import bind_callees, numba_module
 
 _mode = {"parallel": False}
 
@@ -30,13 +30,15 @@ def running_parallel() -> bool:
 
 
 class Kernel:
-    """A kernel of both variants; calling it runs the variant of the current mode."""
+    """A kernel of both variants; calling it runs the variant of the current mode: the
+    serial one compiled ahead of time where it matches the arguments (``jit.py``)."""
 
     def __init__(self, py_func, parallel: bool, options: dict):
         self.py_func = py_func
         self.parallel = parallel  # the source has prange loops to run in parallel
         self.options = options
         self._variants = {}
+        self.compiled = aot.compiled_entry(py_func)  # serial variant's, by argument types
         functools.update_wrapper(self, py_func)
 
     def variant(self, parallel: bool):
@@ -46,25 +48,24 @@ class Kernel:
         dispatcher = self._variants.get(parallel)
         if dispatcher is None:
             f = self.py_func
-            names = dict(f.__globals__)
-            for name in f.__code__.co_names:
-                if isinstance(names.get(name), Kernel):
-                    names[name] = names[name].variant(parallel)
-            copy = types.FunctionType(f.__code__, names, f.__name__, f.__defaults__,
-                                      f.__closure__)
-            copy.__qualname__ = f"{f.__qualname__}_{'parallel' if parallel else 'serial'}"
-            copy.__module__, copy.__doc__ = f.__module__, f.__doc__
-            dispatcher = njit(cache=True, parallel=parallel and self.parallel,
-                              **self.options)(copy)
+            name = f"{f.__qualname__}_{'parallel' if parallel else 'serial'}"
+            dispatcher = numba_module().njit(cache=True, parallel=parallel and self.parallel,
+                                             **self.options)(bind_callees(f, parallel, name))
             self._variants[parallel] = dispatcher
         return dispatcher
 
     def __call__(self, *args):
-        return self.variant(_mode["parallel"])(*args)
+        parallel = _mode["parallel"]
+        if not parallel and self.compiled is not None:
+            run = self.compiled.get(aot.argument_types(args))
+            if run is not None:
+                return run(*args)
+        aot.note_jit_call(self.py_func, args)
+        return self.variant(parallel)(*args)
 
     @property
     def signatures(self) -> list:
-        """Every signature compiled, over both variants."""
+        """Every signature numba compiled, over both variants."""
         return [sig for d in self._variants.values() for sig in d.signatures]
 
 

@@ -40,7 +40,7 @@ def incremental_potential(model, force_weight: float) -> IncrementalPotential:
         # ε_v·h with the scene's own h
         terms.append(WeightedTerm(Friction(
             model.epsv * model.dt, ramp_resolution=model.solver.friction_ramp_resolution,
-            body=np.asarray(model.vertex_shape, dtype=np.int64))))
+            body=np.array(model.vertex_shape, dtype=np.int64))))  # writeable: one kernel variant
     return IncrementalPotential(tuple(terms))
 
 

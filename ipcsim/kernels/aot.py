@@ -1,0 +1,219 @@
+"""Kernels compiled ahead of time: found, checked and looked up by argument types.
+
+Installing ipcsim compiles the serial variant of every kernel a scene calls from Python,
+for the argument types listed in ``signatures.txt``, into one extension module
+(``_compiled*.so``, built by ``aot_build.py``), with a manifest beside it
+(``_compiled.json``): the digest of the kernel sources it was built from, the CPU
+features it was built for, and which export is which kernel for which argument types.
+A run then needs neither numba nor its cache for those calls: no compiling on a first
+run, and no second of loading numba at every start.
+
+The compiled module is used only when its sources digest equals that of the kernels
+being run (edit a kernel and it is out of date: numba compiles that run's kernels, and
+``pip install .`` builds them again) and this CPU has every feature it was built for.
+It is looked for beside these sources, then in the installed ipcsim (a test run from a
+checkout of the same sources). ``IPCSIM_AOT=0`` turns it off.
+
+Argument types are keyed as numba types them, for the types the table can hold: a
+C-contiguous, writeable, aligned array is ``(dtype name, ndim)``; int, float and bool
+(Python or numpy scalars) are ``"int64"``, ``"float64"``, ``"bool"``; a tuple is the
+tuple of its items' keys. Anything else has no compiled match and goes to numba.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import platform
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+TABLE = HERE / "signatures.txt"
+MODULE_NAME = "_compiled"
+MANIFEST = f"{MODULE_NAME}.json"
+
+_NUMBERS = ("float64", "int64", "int32", "bool", "float32", "uint8", "int8")
+_DTYPES = {np.dtype(name): name for name in _NUMBERS}  # dtype.name is slow (microseconds)
+_SCALARS = {int: "int64", float: "float64", bool: "bool",
+            **{np.dtype(name).type: name for name in _NUMBERS}}
+
+
+def argument_types(args) -> tuple:
+    """The key of a call's arguments (module docstring); ``None`` items never match."""
+    return tuple(map(_key, args))
+
+
+def _key(a):
+    t = type(a)
+    if t is np.ndarray:
+        flags = a.flags
+        if flags.c_contiguous and flags.writeable and flags.aligned:
+            dtype = _DTYPES.get(a.dtype)
+            return None if dtype is None else (dtype, a.ndim)
+        return None
+    if t is tuple:
+        return tuple(map(_key, a))
+    return _SCALARS.get(t)
+
+
+# ---- the table: "module.function(type, type, ...)", one line per compiled signature
+
+def format_key(key) -> str:
+    if isinstance(key, tuple) and len(key) == 2 and isinstance(key[1], int):
+        dtype, ndim = key
+        return f"{dtype}[{', '.join([':'] * (ndim - 1) + ['::1'])}]"
+    if isinstance(key, tuple):
+        inner = ", ".join(format_key(k) for k in key)
+        return f"({inner},)" if len(key) == 1 else f"({inner})"
+    return key
+
+
+def parse_types(text: str) -> tuple:
+    """``"float64[:, ::1], (int64[::1], bool), int64"`` -> the argument key."""
+    import ast
+    import re
+
+    literal = re.sub(r"(\w+)\[([:, ]*)::1\]",
+                     lambda m: f"('{m.group(1)}', {m.group(2).count(':') + 1})", text)
+    literal = re.sub(r"(?<!['\w])([a-z]\w*)(?!['\w])", r"'\1'", literal)
+    return tuple(ast.literal_eval(f"({literal},)"))
+
+
+def read_table(path: Path = TABLE) -> list[tuple[str, str, tuple]]:
+    """``[(module, function, argument key), ...]`` of the signature table."""
+    rows = []
+    for line in path.read_text(encoding="utf-8").splitlines():
+        line = line.strip()
+        if line and not line.startswith("#"):
+            name, _, rest = line.partition("(")
+            module, _, function = name.partition(".")
+            rows.append((module, function, parse_types(rest[:-1])))
+    return rows
+
+
+# ---- the compiled module
+
+def sources_digest() -> str:
+    """SHA-256 of every kernel source and the signature table, in name order."""
+    h = hashlib.sha256()
+    for path in sorted(HERE.glob("*.py")) + [TABLE]:
+        h.update(path.name.encode())
+        h.update(path.read_bytes())
+    return h.hexdigest()
+
+
+def cpu_features() -> list[str]:
+    """This CPU's feature flags (Linux), sorted; empty where the system does not say."""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            for line in f:
+                if line.startswith(("flags", "Features")):
+                    return sorted(set(line.split(":", 1)[1].split()))
+    except OSError:
+        pass
+    return []
+
+
+def _installed_folder() -> Path | None:
+    """ipcsim/kernels of the installed distribution, where that is not this folder."""
+    try:
+        from importlib.metadata import PackageNotFoundError, distribution
+        folder = Path(distribution("ipcsim").locate_file("ipcsim/kernels"))
+    except (PackageNotFoundError, OSError):
+        return None
+    return folder if folder.resolve() != HERE else None
+
+
+def _usable(folder: Path) -> dict | None:
+    """The manifest in ``folder`` if its module fits these sources and this CPU."""
+    try:
+        manifest = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if manifest.get("sources") != sources_digest() \
+            or manifest.get("machine") != platform.machine() \
+            or not set(manifest.get("cpu_features", [])) <= set(cpu_features()):
+        return None
+    return manifest
+
+
+def _load_module(folder: Path, manifest: dict):
+    import importlib.util
+
+    path = folder / manifest["module_file"]
+    spec = importlib.util.spec_from_file_location(f"ipcsim.kernels.{MODULE_NAME}", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+_loaded = {}
+
+
+def _entries() -> dict:
+    """``{(module, function): {argument key: compiled function}}``, loaded once."""
+    if "entries" not in _loaded:
+        _loaded["entries"] = {}
+        if os.environ.get("IPCSIM_AOT", "1").strip() != "0":
+            for folder in (HERE, _installed_folder()):
+                manifest = _usable(folder) if folder is not None else None
+                if manifest is not None:
+                    module = _load_module(folder, manifest)
+                    for mod, function, export, types in manifest["exports"]:
+                        _loaded["entries"].setdefault((mod, function), {})[
+                            parse_types(types)] = getattr(module, export)
+                    _loaded["folder"] = folder
+                    break
+    return _loaded["entries"]
+
+
+def compiled_entry(py_func) -> dict | None:
+    """The compiled variants of a kernel by argument key, or None where there are none."""
+    module = py_func.__module__.rpartition(".")[2]
+    return _entries().get((module, py_func.__name__))
+
+
+def compiled_folder() -> Path | None:
+    """Where the compiled kernels in use were found (None: numba compiles every kernel)."""
+    _entries()
+    return _loaded.get("folder")
+
+
+# ---- calls that went to numba
+
+_jit_kernels: set = set()  # the Python function of every kernel numba ran
+_jit_calls: set | None = None  # (module, function, argument key), while recording
+
+
+def note_jit_call(py_func, args) -> None:
+    """Remember a kernel that ran without a compiled match (and, while recording, the
+    argument types of the call)."""
+    _jit_kernels.add(py_func)
+    if _jit_calls is not None:
+        _jit_calls.add((py_func.__module__.rpartition(".")[2], py_func.__name__,
+                        argument_types(args)))
+
+
+def jit_kernels() -> list[str]:
+    """The kernels this process ran through numba, sorted (``module.function``)."""
+    return sorted(f"{f.__module__.rpartition('.')[2]}.{f.__name__}" for f in _jit_kernels)
+
+
+def start_recording() -> None:
+    """From now on remember the argument types of every call that goes to numba."""
+    global _jit_calls
+    if _jit_calls is None:
+        _jit_calls = set()
+
+
+def recorded_calls() -> list[str]:
+    """Each kernel call recorded since ``start_recording``, as a table line."""
+    return sorted(f"{m}.{f}({', '.join(_format_or_unknown(k) for k in key)})"
+                  for m, f, key in _jit_calls or ())
+
+
+def _format_or_unknown(key) -> str:
+    return "?" if key is None or (isinstance(key, tuple) and None in key) else format_key(key)

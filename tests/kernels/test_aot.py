@@ -1,0 +1,167 @@
+"""Kernels compiled ahead of time (ipcsim/kernels/aot.py): a call finds its compiled
+variant only for the argument types numba would compile it for, the module is used only
+with the sources and on a CPU it was built for, it gives numba's bits, and the example
+scenes need no other kernel (so a run neither imports numba nor compiles)."""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from examples import IPC_EXAMPLES
+from ipcsim.kernels import aot
+
+COMPILED = aot.compiled_folder() is not None
+needs_compiled = pytest.mark.skipif(
+    not COMPILED, reason="ipcsim is installed without its compiled kernels (IPCSIM_AOT=0, "
+                         "or they could not be built): numba compiles every kernel")
+
+
+def _samples():
+    a = np.zeros((4, 3))
+    readonly = np.zeros(3)
+    readonly.flags.writeable = False
+    return [
+        (a, ("float64", 2)), (np.zeros(5, np.int64), ("int64", 1)),
+        (np.zeros((2, 3, 3)), ("float64", 3)), (np.zeros(2, np.int32), ("int32", 1)),
+        (np.zeros(2, bool), ("bool", 1)), (1.5, "float64"), (3, "int64"), (True, "bool"),
+        (np.float64(2.0), "float64"), (np.int64(7), "int64"), (np.bool_(False), "bool"),
+        ((a, np.zeros((4, 2), np.int64), 2), (("float64", 2), ("int64", 2), "int64")),
+        (readonly, None), (a[:, ::2], None), (np.asfortranarray(a), None),
+        (np.zeros(3, np.complex128), None), ("text", None), (None, None),
+    ]
+
+
+@pytest.mark.parametrize("value, key", _samples(), ids=lambda v: type(v).__name__)
+def test_argument_types_are_keyed_as_numba_types_them(value, key):
+    """Where a key is given it names exactly the type numba infers, so a compiled
+    variant runs only where numba would run that very specialisation; every other
+    argument (read-only, strided, Fortran-ordered, of another type) has no key."""
+    assert aot.argument_types((value,)) == (key,)
+    if key is not None:
+        from numba import typeof
+
+        from ipcsim.kernels.aot_build import _numba_type
+        assert _numba_type(key) == typeof(value)
+
+
+def test_every_table_line_reads_back_as_written():
+    lines = [line for line in aot.TABLE.read_text(encoding="utf-8").splitlines()
+             if line and not line.startswith("#")]
+    rows = aot.read_table()
+    assert len(rows) == len(lines) > 20
+    for line, (module, function, key) in zip(lines, rows):
+        assert f"{module}.{function}({', '.join(aot.format_key(k) for k in key)})" == line
+    assert len(set(lines)) == len(lines)
+
+
+def _manifest(tmp_path, **changes) -> dict:
+    manifest = {"sources": aot.sources_digest(), "machine": platform.machine(),
+                "cpu_features": aot.cpu_features()[:3], "module_file": "none.so",
+                "exports": []}
+    manifest.update(changes)
+    (tmp_path / aot.MANIFEST).write_text(json.dumps(manifest))
+    return manifest
+
+
+def test_a_compiled_module_serves_only_its_own_sources_on_a_cpu_with_its_features(tmp_path):
+    assert aot._usable(tmp_path) is None  # no manifest
+    assert aot._usable(tmp_path) is None
+    _manifest(tmp_path, sources="0" * 64)  # built from other kernel sources
+    assert aot._usable(tmp_path) is None
+    _manifest(tmp_path, cpu_features=["avx-from-the-future"])  # for another CPU
+    assert aot._usable(tmp_path) is None
+    _manifest(tmp_path, machine="pdp11")
+    assert aot._usable(tmp_path) is None
+    good = _manifest(tmp_path)
+    assert aot._usable(tmp_path) == good
+
+
+def test_importing_the_kernels_and_the_simulation_loads_no_numba():
+    """numba is imported only when a kernel must be compiled (jit.numba_module)."""
+    code = ("import importlib, pkgutil, sys, ipcsim.kernels as k\n"
+            "for m in pkgutil.iter_modules(k.__path__):\n"
+            "    importlib.import_module('ipcsim.kernels.' + m.name)\n"
+            "import ipcsim.simulation, ipcsim.runner, ipcsim.cli\n"
+            "print('numba' in sys.modules)\n")
+    env = dict(os.environ, IPCSIM_AOT="0")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=env, check=True).stdout.split()
+    assert out == ["False"]
+
+
+def test_the_sources_digest_covers_every_kernel_source_and_the_table():
+    names = {p.name for p in aot.HERE.glob("*.py")}
+    assert {"elasticity.py", "contact_barrier.py", "jit.py", "aot.py"} <= names
+    assert len(aot.sources_digest()) == 64
+
+
+@needs_compiled
+def test_compiled_kernels_give_numbas_bits():
+    """The compiled serial variants against numba's own, on the kernels with the most
+    arithmetic: elasticity's Hessian, the contact barrier's, friction's, CCD."""
+    from ipcsim.kernels import ccd
+    from ipcsim.kernels import contact_barrier as cb
+    from ipcsim.kernels import elasticity as el
+
+    rng = np.random.default_rng(3)
+    x = rng.random((40, 3))
+    tets = np.ascontiguousarray(rng.permutation(40)[:32].reshape(8, 4)).astype(np.int64)
+    Dm_inv = rng.random((8, 3, 3)) + np.eye(3)
+    vol, lame = rng.random(8) + 0.1, rng.random((8, 2)) + 0.5
+    pt = rng.permutation(40)[:24].reshape(6, 4).astype(np.int64)
+    ee = rng.permutation(40)[:16].reshape(4, 4).astype(np.int64)
+    eps = np.full(4, 1e-3)
+    calls = [
+        (el.elastic_hessian_values, (x, tets, Dm_inv, vol, lame, 0, True)),
+        (el.elastic_gradient, (x, tets, Dm_inv, vol, lame, 1)),
+        (cb.barrier_hessian_triplets, (x, pt, ee, eps, 0.09, 1.0, True)),
+        (cb.barrier_gradient, (x, pt, ee, eps, 0.09, 1.0)),
+        (cb.classify_and_distance, (x, pt, ee)),
+    ]
+    for kernel, args in calls:
+        assert kernel.compiled.get(aot.argument_types(args)) is not None, kernel.__name__
+        compiled, jitted = kernel(*args), kernel.variant(False)(*args)
+        for a, b in zip(compiled if isinstance(compiled, tuple) else (compiled,),
+                        jitted if isinstance(jitted, tuple) else (jitted,)):
+            np.testing.assert_array_equal(a, b)
+    x1 = x + 0.3 * rng.standard_normal(x.shape)
+    stencils = np.concatenate([pt, ee])
+    state = np.empty((len(stencils), 5))
+    state_jit = state.copy()
+    ccd._init_serial(x, x1, stencils, len(pt), state)
+    ccd._init_serial.dispatcher()(x, x1, stencils, len(pt), state_jit)
+    np.testing.assert_array_equal(state, state_jit)
+
+
+SCENES = [("input/two_cubes_fall.txt", 40),
+          (IPC_EXAMPLES / "input" / "tutorialExamples" / "2cubesFall.txt", None)]
+
+
+@needs_compiled
+@pytest.mark.parametrize("scene, steps", SCENES, ids=["hello world", "2cubesFall"])
+def test_the_example_scenes_run_without_numba(scene, steps, tmp_path):
+    """Every kernel call of these runs (contact, friction, the initial and the frames'
+    intersection checks) has its compiled variant: numba is never imported."""
+    if not os.path.exists(scene):
+        pytest.skip("the original's examples are not beside the project")
+    code = ("import sys, ipcsim\n"
+            "from ipcsim.commands.check import check_frames\n"
+            f"ipcsim.run(ipcsim.load_scene({str(scene)!r}), {str(tmp_path)!r}, "
+            f"steps={steps}, mode='overwrite')\n"
+            f"check_frames(__import__('pathlib').Path({str(tmp_path)!r}), out=sys.stderr)\n"
+            "from ipcsim.kernels import aot\n"
+            "print(aot.jit_kernels(), 'numba' in sys.modules)\n")
+    env = {k: v for k, v in os.environ.items() if k not in ("IPCSIM_AOT", "IPCSIM_THREADS")}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=env, check=True).stdout.strip().splitlines()[-1]
+    assert out == "[] False"
+    info = json.loads((tmp_path / "run.json").read_text())
+    assert info["kernels"] == {"compiled_ahead_of_time": True, "run_by_numba": [],
+                               "numba_compile_s": 0.0}
