@@ -21,7 +21,7 @@ import time as _time
 import zlib
 from pathlib import Path
 from xml.etree import ElementTree
-from xml.sax.saxutils import quoteattr
+from html import escape
 
 import numpy as np
 
@@ -103,7 +103,7 @@ def _data_array(name: str, data: np.ndarray, level: int | None, *, tuples: bool 
     if tuples:  # VTK reads field-data arrays as empty without it
         comps += f' NumberOfTuples="{data.shape[0]}"'
     return (
-        f'<DataArray type="{type_name}" Name={quoteattr(name)}{comps} format="binary">'
+        f'<DataArray type="{type_name}" Name="{escape(name)}"{comps} format="binary">'
         f"{_encode_array(data, level)}</DataArray>\n"
     )
 
@@ -313,7 +313,7 @@ class FrameWriter:
 
     def _add_to_series(self, index: int, time: float, name: str) -> None:
         # repr keeps the exact double; ParaView and pyvista parse it as a float
-        line = f'    <DataSet timestep="{time!r}" part="0" file={quoteattr(name)}/>\n'
+        line = f'    <DataSet timestep="{time!r}" part="0" file="{escape(name)}"/>\n'
         self._series[index] = (time, name, line)
 
     def _write_series(self) -> None:

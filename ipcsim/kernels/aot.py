@@ -26,6 +26,7 @@ import hashlib
 import json
 import os
 import platform
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -117,14 +118,13 @@ def cpu_features() -> list[str]:
     return []
 
 
-def _installed_folder() -> Path | None:
-    """ipcsim/kernels of the installed distribution, where that is not this folder."""
-    try:
-        from importlib.metadata import PackageNotFoundError, distribution
-        folder = Path(distribution("ipcsim").locate_file("ipcsim/kernels"))
-    except (PackageNotFoundError, OSError):
-        return None
-    return folder if folder.resolve() != HERE else None
+def _installed_folders():
+    """ipcsim/kernels folders holding a compiled module on the import path, other than
+    this one: the installed ipcsim, while these sources run from a checkout."""
+    for entry in sys.path:
+        folder = Path(entry or ".").resolve() / "ipcsim" / "kernels"
+        if folder != HERE and (folder / MANIFEST).is_file():
+            yield folder
 
 
 def _usable(folder: Path) -> dict | None:
@@ -158,8 +158,8 @@ def _entries() -> dict:
     if "entries" not in _loaded:
         _loaded["entries"] = {}
         if os.environ.get("IPCSIM_AOT", "1").strip() != "0":
-            for folder in (HERE, _installed_folder()):
-                manifest = _usable(folder) if folder is not None else None
+            for folder in (HERE, *_installed_folders()):
+                manifest = _usable(folder)
                 if manifest is not None:
                     module = _load_module(folder, manifest)
                     for mod, function, export, types in manifest["exports"]:

@@ -83,6 +83,19 @@ def test_a_compiled_module_serves_only_its_own_sources_on_a_cpu_with_its_feature
     assert aot._usable(tmp_path) == good
 
 
+def test_an_installed_module_is_found_from_a_checkout_of_the_same_sources(tmp_path,
+                                                                         monkeypatch):
+    """Tests run the checkout's sources while ``pip install .`` put the compiled module
+    beside the installed copy: it is found on the import path (and used if its manifest
+    fits, ``_usable``), not beside these sources."""
+    installed = tmp_path / "site" / "ipcsim" / "kernels"
+    installed.mkdir(parents=True)
+    _manifest(installed)
+    monkeypatch.setattr(sys, "path", [str(tmp_path / "nothing"), str(tmp_path / "site")])
+    assert list(aot._installed_folders()) == [installed.resolve()]
+    assert aot._usable(installed) is not None
+
+
 def test_importing_the_kernels_and_the_simulation_loads_no_numba():
     """numba is imported only when a kernel must be compiled (jit.numba_module)."""
     code = ("import importlib, pkgutil, sys, ipcsim.kernels as k\n"
