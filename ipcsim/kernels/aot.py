@@ -50,8 +50,7 @@ def argument_types(args) -> tuple:
 def _key(a):
     t = type(a)
     if t is np.ndarray:
-        flags = a.flags
-        if flags.c_contiguous and flags.writeable and flags.aligned:
+        if a.flags.carray:  # C-contiguous, aligned and writeable
             dtype = _DTYPES.get(a.dtype)
             return None if dtype is None else (dtype, a.ndim)
         return None
