@@ -103,6 +103,10 @@ class Simulation:
         self.on_iteration = None  # called with each newton.csv row as it completes (-v)
         self.stiffness = _initial_stiffness(model, self.contact)
         self.state = _initial_state(model, self.stiffness.kappa)
+        # prescribed vertices of bodies that a step may pull (potentials/boundary_pull.py),
+        # and the pull schedule's small step: the original's √(10⁻⁴ l² h²)
+        self._pullable = (np.asarray(model.mass, dtype=float), ~model.obstacle_vertices)
+        self._pull_step = 0.01 * model.bbox_diagonal * model.dt
         # the SQP / QP baselines minimise the step with contact as constraints
         self.constrained = None
         if model.constraint_solver is not None:
@@ -185,7 +189,8 @@ class Simulation:
         ctx = StepContext(x_start=x, x_tilde=x_tilde, acceleration=accel, kinematic=kinematic,
                           target=target, dhat=model.dhat, damping=damping)
         stiffness = dataclasses.replace(self.stiffness, kappa=state.kappa).new_step()
-        objective = StepObjective(self.potential, ctx, self.contact, stiffness, self.timer)
+        objective = StepObjective(self.potential, ctx, self.contact, stiffness, self.timer,
+                                  pullable=self._pullable, small_step=self._pull_step)
         if self.potential.term("friction") is not None:
             objective.lag_friction(x)
         return objective

@@ -362,6 +362,11 @@ class Model:
         return self.surface_triangles[kinds[self.triangle_shape]] if len(self.triangle_shape) \
             else self.surface_triangles
 
+    @property
+    def obstacle_vertices(self) -> np.ndarray:
+        """(n,) bool: the vertices of obstacle shapes (meshCO and the like)."""
+        return self._obstacle_mask(self.vertex_shape)
+
     def _obstacle_mask(self, shape_ids: np.ndarray) -> np.ndarray:
         kinds = np.array([k == "obstacle" for k in self.shape_kinds], dtype=bool)
         return kinds[shape_ids] if len(shape_ids) else np.zeros(0, dtype=bool)

@@ -9,12 +9,18 @@ The objective owns the step's refreshes, so that Newton knows nothing of contact
 * ``max_step(x, p)`` bounds the step (the terms' own bounds, mesh CCD) and returns a
   ``LineSearch`` whose energies use every pair that comes within d̂ along [x, x + αp];
 * ``resolved(x, p)`` is the terms' own stopping test (friction's static ramp);
-* ``lag_friction(x)`` freezes friction's normal forces and bases at x.
+* ``lag_friction(x)`` freezes friction's normal forces and bases at x;
+* ``follow_up(x, p, first)`` after each Newton iteration: where the step's first
+  iteration left the prescribed motion of bodies unfinished, their prescribed vertices
+  are pulled towards their targets from then on (``boundary_pull.py``), as free DOFs;
+  the pull tightens until they are there (``prescribed_complete``).
 
 Its state is explicit: the step's ``StepContext`` (replaced, never written to), the
-``BarrierStiffness`` and the α of the last CCD sweep (``contact.ccd.line_search_bound``
-starts from it). The collision set of the last evaluated x is kept for a repeat call at
-equal positions (compared by value).
+``BarrierStiffness``, the pull, the α of the last CCD sweep
+(``contact.ccd.line_search_bound`` starts from it) and ``revision``, which counts the
+changes of the potential itself (a pull started, tightened or ended: energies from
+before are not comparable). The collision set of the last evaluated x is kept for a
+repeat call at equal positions (compared by value).
 """
 
 from __future__ import annotations
@@ -30,7 +36,8 @@ from ..contact.friction_lag import FrictionLag, lag_friction
 from ..contact.setup import ContactCount, ContactSetup
 from ..contact.stiffness import BarrierStiffness
 from .base import StepContext, Triplets
-from .incremental import IncrementalPotential, TermValues
+from .boundary_pull import BoundaryPull, PullSchedule
+from .incremental import IncrementalPotential, TermValues, WeightedTerm
 
 
 @dataclass(frozen=True, eq=False)
@@ -78,12 +85,22 @@ class LineSearch:
 
 class StepObjective:
     def __init__(self, potential: IncrementalPotential, ctx: StepContext,
-                 contact: ContactSetup, stiffness: BarrierStiffness, timer):
-        self.potential = potential
+                 contact: ContactSetup, stiffness: BarrierStiffness, timer,
+                 pullable: tuple[np.ndarray, np.ndarray] | None = None,
+                 small_step: float = 0.0):
+        """``pullable``: (mass (n,), mask (n,) of the vertices of bodies: what a pull may
+        take of the prescribed vertices), None for no pull; ``small_step``: the pull
+        schedule's ‖p‖∞ (``PullSchedule``)."""
+        self.potential = self._base_potential = potential
         self.ctx = ctx
         self.contact = contact
         self.stiffness = stiffness
         self.timer = timer
+        self.pullable = pullable
+        self.small_step = small_step
+        self.pull: BoundaryPull | None = None
+        self._schedule: PullSchedule | None = None
+        self.revision = 0
         self.last_ccd_alpha = 1.0  # CCD's α at this step's previous line search
         self._collisions_at: tuple[np.ndarray, Collisions] | None = None
         # (y, swept set): the last point Newton took along a line search, and its pairs
@@ -92,11 +109,20 @@ class StepObjective:
     # -- what Newton reads -----------------------------------------------------------------
     @property
     def kinematic(self) -> np.ndarray:
-        return self.ctx.kinematic
+        """The vertices Newton eliminates: the prescribed ones, but those being pulled."""
+        if self.pull is None:
+            return self.ctx.kinematic
+        free = self.ctx.kinematic.copy()
+        free[self.pull.vertices] = False
+        return free
 
     @property
     def target(self) -> np.ndarray:
         return self.ctx.target
+
+    def prescribed_complete(self) -> bool:
+        """No pull is under way (a pulled body's prescribed motion is done)."""
+        return self.pull is None
 
     def evaluate(self, x: np.ndarray, order: int = 2, adapt: bool = True) -> Evaluation:
         """E (order 0), ∇E (1) and the Hessian (2) at x with the collision set at x. At
@@ -119,7 +145,7 @@ class StepObjective:
             return
         g_barrier = g_rest = None
         if self.stiffness.needs_balance(contacts.total):
-            free = np.repeat(~self.ctx.kinematic, 3)
+            free = np.repeat(~self.kinematic, 3)
             g_barrier, g_rest = (g[free] for g in values.split_gradient())
         self.stiffness = self.stiffness.at_iterate(contacts.total, contacts.min_distance,
                                                    g_barrier, g_rest)
@@ -153,6 +179,42 @@ class StepObjective:
         return self.potential.nonfinite_terms(x, ctx, p)
 
     # -- refreshes ---------------------------------------------------------------------------
+    def follow_up(self, x: np.ndarray, p: np.ndarray, first: bool) -> None:
+        """Newton moved to x along p: after the step's first iteration, pull the bodies'
+        prescribed vertices that have not reached their targets; during a pull, tighten
+        it or, once they are there, end it and keep them where they are."""
+        if self.pull is None:
+            if first and self.pullable is not None:
+                self._start_pull(x)
+            return
+        pull, changed = self._schedule.next(self.pull, x, p)
+        if pull is None:  # done: they stay at x for the rest of the step
+            target = self.ctx.target.copy()
+            target[self.pull.vertices] = x[self.pull.vertices]
+            self.ctx = dataclasses.replace(self.ctx, target=target)
+        if changed:
+            self._set_pull(pull)
+
+    def _start_pull(self, x: np.ndarray) -> None:
+        mass, bodies = self.pullable
+        vertices = np.flatnonzero(self.ctx.kinematic & bodies & (mass > 0.0))
+        if not len(vertices):
+            return
+        pull = BoundaryPull(vertices, mass[vertices], self.ctx.target[vertices],
+                            self.ctx.x_start[vertices])
+        completion = pull.completion(x)
+        schedule = PullSchedule(completion, self.small_step)
+        if completion < schedule.done:
+            self._schedule = schedule
+            self._set_pull(pull)
+
+    def _set_pull(self, pull: BoundaryPull | None) -> None:
+        self.pull = pull
+        terms = self._base_potential.terms
+        self.potential = (self._base_potential if pull is None
+                          else IncrementalPotential(terms + (WeightedTerm(pull),)))
+        self.revision += 1
+
     def took(self, y: np.ndarray, swept: Collisions | None) -> None:
         """Newton takes y, a point of a line search that swept the pairs ``swept``."""
         self._on_segment = (y, swept)

@@ -2,7 +2,11 @@
 
 One call minimises an objective: anything with ``kinematic`` (n,) and ``target`` (n, 3),
 ``evaluate(x, order) -> Evaluation`` (E, ∇E, PSD Hessian triplets), ``max_step(x, p) ->
-LineSearch`` (the feasible α and the energy along p) and ``resolved(x, p) -> bool``.
+LineSearch`` (the feasible α and the energy along p), ``resolved(x, p) -> bool``, and
+``follow_up(x, p, first)``, ``prescribed_complete()`` and ``revision`` for the pull of
+prescribed vertices that the first iteration could not take to their targets
+(``potentials/boundary_pull.py``: they become free DOFs, pulled by a stiff spring, and
+the step converges only once they are there; ``revision`` changes with the potential).
 Kinematic DOFs are eliminated: their part of the search direction is the remaining
 prescribed motion p_k = target − x_k, and the free part solves
 
@@ -98,22 +102,24 @@ class NewtonSolver:
                         tol)
         run.kinematic_complete = run.prescribed == 0.0
         energy = None  # E(x), known after a line search
-        kappa = None
+        potential = None  # (κ, the objective's revision) of that energy
         for it in range(self.settings.max_newton_iterations):
             ev = objective.evaluate(x, 2)
             self._complete_last_row(run, ev)
-            if ev.kappa != kappa:
-                energy, kappa = None, ev.kappa  # the potential itself changed (κ)
+            if (ev.kappa, objective.revision) != potential:
+                energy = None  # the potential itself changed (κ, a pull)
+                potential = (ev.kappa, objective.revision)
             if not np.isfinite(ev.gradient).all():
                 raise NonFiniteError("gradient", objective.nonfinite_terms(x), it)
             p, remaining = self._direction(objective, x, ev, run, it)
+            kin_dofs = np.repeat(objective.kinematic, 3)
             step_norm = np.abs(p[~kin_dofs]).max(initial=0.0)
             row = {"iteration": it, "step_inf_norm": step_norm, "tolerance": tol,
                    "gradient_norm": float(np.linalg.norm(ev.gradient[~kin_dofs])),
                    "kappa": ev.kappa,
                    "residual_ratio": step_norm / tol if tol > 0 else np.nan}
             converged = (run.kinematic_complete and step_norm < tol
-                         and objective.resolved(x, p))
+                         and objective.prescribed_complete() and objective.resolved(x, p))
             if converged and step_norm == 0.0:
                 alpha = 0.0  # nothing left to do
                 energy = ev.energy if energy is None else energy
@@ -139,6 +145,7 @@ class NewtonSolver:
             if converged:
                 run.iterations = it + 1
                 return self._finish(objective, x, run, converged=True)
+            objective.follow_up(x, p, first=it == 0)  # may pull prescribed vertices
         run.iterations = self.settings.max_newton_iterations
         return self._finish(objective, x, run, converged=False, hit_cap=True)
 

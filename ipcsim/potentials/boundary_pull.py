@@ -1,0 +1,103 @@
+"""The pull of prescribed vertices towards targets the Newton step could not take them to:
+an augmented Lagrangian, as the original's moving boundary conditions (IPC, section 4.2):
+
+    E_pull(x) = Σ_k (ρ/2) m_k ‖x_k − x̂_k‖² − √m_k λ_k · (x_k − x̂_k)
+
+over the pulled vertices k (prescribed vertices of bodies: m_k > 0), with targets x̂_k.
+While it acts, those vertices are free DOFs of the step, so the Newton direction balances
+the pull against contact instead of forcing the prescribed motion through it (which CCD
+then cuts to a sliver of a step, iteration after iteration). ``StepObjective`` adds it to
+the step's potential and tightens it (``PullSchedule``): ρ doubles while the vertices do
+not close in, λ_k ← λ_k − ρ √m_k (x_k − x̂_k) once they nearly have, until
+
+    completion = 1 − √(Σ_k ‖x_k − x̂_k‖² / Σ_k ‖x̂_k − x_k⁰‖²) ≥ 1 − 10⁻³
+
+(x⁰: the step's start), when the vertices stay where they are for the rest of the step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import ClassVar
+
+import numpy as np
+
+from .base import StepContext, Triplets
+
+START_RHO = 1e6  # ρ at the start of a pull (the original's)
+MAX_RHO = 1e8  # ρ is doubled up to this
+
+
+@dataclass(frozen=True, eq=False)
+class BoundaryPull:
+    vertices: np.ndarray  # (k,) int64, the pulled vertices
+    mass: np.ndarray  # (k,) their lumped masses
+    target: np.ndarray  # (k, 3) their targets x̂
+    start: np.ndarray  # (k, 3) their positions at the step's start
+    rho: float = START_RHO
+    lam: np.ndarray | None = None  # (k, 3) multipliers λ; zero when None
+    name: ClassVar[str] = "boundary_pull"
+    constant_pattern: ClassVar[bool] = False
+
+    def _offset(self, x) -> np.ndarray:
+        return x[self.vertices] - self.target
+
+    def value(self, x, ctx: StepContext | None = None) -> float:
+        d = self._offset(x)
+        e = 0.5 * self.rho * float(np.einsum("k,ki,ki->", self.mass, d, d))
+        if self.lam is not None:
+            e -= float(np.einsum("k,ki,ki->", np.sqrt(self.mass), self.lam, d))
+        return e
+
+    def gradient(self, x, ctx: StepContext | None = None) -> np.ndarray:
+        g_k = self.rho * self.mass[:, None] * self._offset(x)
+        if self.lam is not None:
+            g_k -= np.sqrt(self.mass)[:, None] * self.lam
+        g = np.zeros_like(x)
+        g[self.vertices] = g_k
+        return g.reshape(-1)
+
+    def hessian(self, x, ctx: StepContext | None = None) -> Triplets:
+        dofs = (3 * self.vertices[:, None] + np.arange(3)).reshape(-1)
+        return Triplets(dofs, dofs, np.repeat(self.rho * self.mass, 3))
+
+    def completion(self, x) -> float:
+        """The part of the pulled vertices' prescribed motion done at x (1: all)."""
+        total = float(np.sum((self.target - self.start) ** 2))
+        if total == 0.0:
+            return 1.0
+        return 1.0 - float(np.sqrt(np.sum(self._offset(x) ** 2) / total))
+
+    def stiffer(self) -> "BoundaryPull":
+        return replace(self, rho=min(2.0 * self.rho, MAX_RHO))
+
+    def with_updated_multipliers(self, x) -> "BoundaryPull":
+        """λ_k ← λ_k − ρ √m_k (x_k − x̂_k): the first-order multiplier update."""
+        lam = np.zeros_like(self.target) if self.lam is None else self.lam
+        return replace(self, lam=lam - self.rho * np.sqrt(self.mass)[:, None] * self._offset(x))
+
+
+@dataclass(frozen=True)
+class PullSchedule:
+    """When a pull tightens, as the original's: after a Newton iteration that ended at x
+    with direction p, ρ doubles if the vertices fell back behind where the pull started
+    (``completion < started_at``); otherwise, once the step is small (‖p‖∞ below
+    ``small_step``, the original's √(10⁻⁴ l² h²) = 0.01·l·h), ρ doubles while less than
+    99 % is done and the multipliers update after that."""
+
+    started_at: float  # the completion when the pull started
+    small_step: float
+    done: float = 1.0 - 1e-3  # the completion at which a pull ends
+
+    def next(self, pull: BoundaryPull, x, p) -> tuple[BoundaryPull | None, bool]:
+        """(the pull for the next iteration, None when it is done; whether it changed)."""
+        completion = pull.completion(x)
+        if completion >= self.done:
+            return None, True
+        if completion < self.started_at and pull.rho < MAX_RHO:
+            return pull.stiffer(), True
+        if np.abs(p).max(initial=0.0) < self.small_step:
+            if completion < 0.99 and pull.rho < MAX_RHO:
+                return pull.stiffer(), True
+            return pull.with_updated_multipliers(x), True
+        return pull, False
