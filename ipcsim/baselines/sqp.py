@@ -122,7 +122,7 @@ class ConstrainedSolver:
             static, dynamic = ev.hessian
             H, _ = self.assembler.assemble(static, dynamic, run.free_index, run.n_free,
                                            np.zeros(run.free_index.size))
-        return H, ev.gradient[run.free_index >= 0]
+        return H.to_scipy(), ev.gradient[run.free_index >= 0]
 
     def _qp_step(self, objective, x_lin, system, run: _Run, it: int):
         """Solve the QP linearised at x_lin; returns (x_new, ‖αΔx‖∞)."""

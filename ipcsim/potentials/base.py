@@ -22,11 +22,12 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable, ClassVar, Protocol
 
 import numpy as np
-import scipy.sparse as sp
 
 from ..kernels import assembly as ka
 
 if TYPE_CHECKING:
+    import scipy.sparse as sp
+
     from ..contact.collisions import Collisions
     from ..contact.friction_lag import FrictionLag
 
@@ -80,7 +81,9 @@ class Triplets:
         """The same triplets, w times."""
         return self if w == 1.0 else Triplets(self.rows, self.cols, self.vals, self.scale * w)
 
-    def tocsr(self, n_dofs: int) -> sp.csr_matrix:
+    def tocsr(self, n_dofs: int) -> "sp.csr_matrix":
+        import scipy.sparse as sp  # only where a term needs the matrix itself (damping)
+
         return sp.csr_matrix((self.values, (self.rows, self.cols)), shape=(n_dofs, n_dofs))
 
     def scatter_into(self, data, slots, free_index, p, coupling) -> None:
@@ -150,7 +153,7 @@ class ElementHessian:
         """The same Hessian with its values evaluated now and kept (damping's, for a step)."""
         return dataclasses.replace(self, element_values=_KeptValues(self.vals, self.block))
 
-    def tocsr(self, n_dofs: int) -> sp.csr_matrix:
+    def tocsr(self, n_dofs: int) -> "sp.csr_matrix":
         rows, cols = self.element_pattern(self.elements)
         return Triplets(rows, cols, self.values).tocsr(n_dofs)
 
@@ -179,7 +182,7 @@ class LaggedDamping:
 
     x_start: np.ndarray  # (n, 3) xₙ
     triplets: "ElementHessian"  # D as blocks on the elastic Hessian's pattern, values kept
-    matrix: sp.csr_matrix  # D, for the value and the gradient
+    matrix: "sp.csr_matrix"  # D, for the value and the gradient
 
 
 @dataclass(frozen=True, eq=False)

@@ -10,14 +10,40 @@ friction) are merged into that matrix by one kernel (``kernels/assembly.py``).
 
 ``assemble`` also returns the coupling H_fk p_k, the free rows' product with the
 prescribed motion of kinematic DOFs, which the Newton step subtracts from its right side.
+The matrix is a plain ``CscMatrix``: a run needs no scipy.sparse (whose import, with
+the numpy modules scipy pulls in, is 0.08 s and 17 MB of every start here).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import ClassVar
+
 import numpy as np
-import scipy.sparse as sp
 
 from ..kernels import assembly as ka
+
+
+@dataclass(frozen=True, eq=False)
+class CscMatrix:
+    """A sparse matrix in compressed sparse columns, with sorted row indices and no
+    duplicates in each column (as the linear solvers read it)."""
+
+    data: np.ndarray
+    indices: np.ndarray
+    indptr: np.ndarray
+    shape: tuple[int, int]
+    format: ClassVar[str] = "csc"
+    has_canonical_format: ClassVar[bool] = True
+
+    def to_scipy(self):
+        """The same matrix as a ``scipy.sparse.csc_matrix`` (sharing the arrays)."""
+        import scipy.sparse as sp
+
+        return sp.csc_matrix((self.data, self.indices, self.indptr), shape=self.shape)
+
+    def toarray(self) -> np.ndarray:
+        return self.to_scipy().toarray()
 
 
 class _StaticPattern:
@@ -81,4 +107,4 @@ class Assembler:
                                                     vals, free_index, p, coupling)
         else:
             indptr, indices = pat.indptr, pat.indices
-        return sp.csc_matrix((data, indices, indptr), shape=(n_free, n_free)), coupling
+        return CscMatrix(data, indices, indptr, (n_free, n_free)), coupling

@@ -41,7 +41,6 @@ import site
 import sys
 
 import numpy as np
-import scipy.sparse as sp
 
 from ..errors import SolverError
 
@@ -52,10 +51,14 @@ BLOCK = 3  # DOFs per vertex: the ordering works on the graph of these blocks
 
 def _symmetric_csc_arrays(A):
     """(indptr, indices, data) of a full symmetric sparse matrix, as CSC with sorted,
-    unique indices. CSR input is used as is: for a symmetric matrix it is the CSC of Aᵀ = A."""
+    unique indices. CSR input is used as is: for a symmetric matrix it is the CSC of Aᵀ = A.
+    The Newton matrix (``assembly.CscMatrix``) is used as it is; other scipy matrices
+    are converted."""
     if A.shape[0] != A.shape[1]:
         raise ValueError(f"expected a square matrix, got shape {A.shape}")
     if A.format not in ("csc", "csr"):
+        import scipy.sparse as sp
+
         A = sp.csc_matrix(A)
     if not A.has_canonical_format:  # sorted indices, no duplicates
         A = A.copy()
@@ -107,11 +110,13 @@ def group_nested_dissection(indptr, indices, n: int, block: int = BLOCK):
     col = np.repeat(np.arange(n, dtype=np.int64) // block, np.diff(indptr))
     row = np.asarray(indices, dtype=np.int64) // block
     off = row != col
-    G = sp.csr_matrix((np.ones(int(off.sum()), dtype=np.int32), (row[off], col[off])),
-                      shape=(groups, groups))
-    G = G + G.T  # METIS needs a symmetric adjacency; the pattern should already be
-    G.sort_indices()
-    xadj, adjncy = G.indptr.astype(np.int64), G.indices.astype(np.int64)
+    row, col = row[off], col[off]
+    # the adjacency of G + Gᵀ (METIS needs it symmetric; the pattern should already be),
+    # as sorted, unique (group, neighbour) keys
+    key = np.unique(np.concatenate([row * groups + col, col * groups + row]))
+    node, adjncy = np.divmod(key, groups)
+    xadj = np.zeros(groups + 1, dtype=np.int64)
+    np.cumsum(np.bincount(node, minlength=groups), out=xadj[1:])
     if hasattr(pymetis, "CSRAdjacency"):  # newer pymetis; older ones take xadj/adjncy
         order, _ = pymetis.nested_dissection(adjacency=pymetis.CSRAdjacency(xadj, adjncy))
     else:
@@ -141,7 +146,8 @@ class ScipySolver:
         n = len(indptr) - 1
         if n == 0:
             return np.zeros(0)
-        import scipy.sparse.linalg as spla  # the fallback only: 40-60 ms to import
+        import scipy.sparse as sp  # the fallback only: 0.2 s to import both
+        import scipy.sparse.linalg as spla
 
         M = sp.csc_matrix((data, indices, indptr), shape=(n, n))
         try:

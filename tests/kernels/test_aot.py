@@ -161,7 +161,9 @@ SCENES = [("input/two_cubes_fall.txt", 40),
 @pytest.mark.parametrize("scene, steps", SCENES, ids=["hello world", "2cubesFall"])
 def test_the_example_scenes_run_without_numba(scene, steps, tmp_path):
     """Every kernel call of these runs (contact, friction, the initial and the frames'
-    intersection checks) has its compiled variant: numba is never imported."""
+    intersection checks) has its compiled variant: numba is never imported. Nor is
+    scipy.sparse: the Newton matrix is ipcsim's own CSC (solver/assembly.CscMatrix).
+    (scipy.linalg is: the contact barrier's eigh takes LAPACK from it.)"""
     if not os.path.exists(scene):
         pytest.skip("the original's examples are not beside the project")
     code = ("import sys, ipcsim\n"
@@ -170,11 +172,11 @@ def test_the_example_scenes_run_without_numba(scene, steps, tmp_path):
             f"steps={steps}, mode='overwrite')\n"
             f"check_frames(__import__('pathlib').Path({str(tmp_path)!r}), out=sys.stderr)\n"
             "from ipcsim.kernels import aot\n"
-            "print(aot.jit_kernels(), 'numba' in sys.modules)\n")
+            "print(aot.jit_kernels(), 'numba' in sys.modules, 'scipy.sparse' in sys.modules)\n")
     env = {k: v for k, v in os.environ.items() if k not in ("IPCSIM_AOT", "IPCSIM_THREADS")}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          env=env, check=True).stdout.strip().splitlines()[-1]
-    assert out == "[] False"
+    assert out == "[] False False"
     info = json.loads((tmp_path / "run.json").read_text())
     assert info["kernels"] == {"compiled_ahead_of_time": True, "run_by_numba": [],
                                "numba_compile_s": 0.0}

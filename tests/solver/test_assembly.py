@@ -4,7 +4,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ipcsim.potentials.base import Triplets
-from ipcsim.solver.assembly import Assembler
+from ipcsim.solver.assembly import Assembler, CscMatrix
 
 RNG = np.random.default_rng(11)
 
@@ -17,6 +17,15 @@ def _reference(parts, kinematic_dofs, p):
     H = Triplets.concat(parts).tocsr(len(kinematic_dofs)).toarray()
     free = ~kinematic_dofs
     return H[np.ix_(free, free)], H[np.ix_(free, kinematic_dofs)] @ p[kinematic_dofs]
+
+
+def _assert_canonical(A):
+    """What CscMatrix promises the solvers: each column's rows sorted and unique."""
+    assert A.indptr[0] == 0 and A.indptr[-1] == len(A.indices) == len(A.data)
+    for j in range(A.shape[1]):
+        rows = A.indices[A.indptr[j]:A.indptr[j + 1]]
+        assert np.all(np.diff(rows) > 0)
+    assert sp.csc_matrix((A.data, A.indices, A.indptr), shape=A.shape).has_canonical_format
 
 
 def test_assembly_matches_reference_and_reuses_the_pattern():
@@ -34,7 +43,8 @@ def test_assembly_matches_reference_and_reuses_the_pattern():
             p = RNG.normal(size=n_dofs)
             A, coupling = assembler.assemble(static, dynamic, free_index, int((~kinematic).sum()), p)
             ref_A, ref_c = _reference(static + dynamic, kinematic, p)
-            assert sp.issparse(A)
+            assert isinstance(A, CscMatrix)
+            _assert_canonical(A)
             np.testing.assert_allclose(A.toarray(), ref_A, rtol=1e-12, atol=1e-12)
             np.testing.assert_allclose(coupling, ref_c, rtol=1e-12, atol=1e-12)
 
