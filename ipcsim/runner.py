@@ -108,10 +108,12 @@ class StopRequest:
 
     def __init__(self):
         self.requested = False
+        self.at_once = False  # the second signal came
         self._previous = {}
 
     def _handle(self, signum, frame):
         if self.requested:
+            self.at_once = True
             raise KeyboardInterrupt
         self.requested = True
         again = "Ctrl-C" if signum == signal.SIGINT else "the signal"
@@ -347,14 +349,24 @@ def _simulate(run: _Run) -> tuple[int, str | None, str | None]:
             return exc.exit_status, str(exc), (f"{exc}; frames and logs up to the last "
                                                "completed step are kept")
         except KeyboardInterrupt:
-            return 130, "interrupted", (f"interrupted after step {run.sim.state.step}; "
-                                        f"continue with: {resume_command(run)}")
+            return _interrupted(run)
+        except Exception:
+            # a KeyboardInterrupt raised inside a C extension's call can come back as its
+            # own error (pymetis: "RuntimeError: Caught an unknown exception!")
+            if not stop.at_once:
+                raise
+            return _interrupted(run)
         finally:
             progress.close()  # before any message, so that it does not tangle with the bar
             if run.renderer is not None:
                 run.renderer.close()
             run.frames.flush()  # the series names every frame written
     return 0, None, None
+
+
+def _interrupted(run: _Run) -> tuple[int, str, str]:
+    return 130, "interrupted", (f"interrupted after step {run.sim.state.step}; "
+                                f"continue with: {resume_command(run)}")
 
 
 def _toml_value(v) -> str:

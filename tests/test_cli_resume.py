@@ -117,6 +117,37 @@ def test_sigterm_stops_after_the_current_step_like_ctrl_c(stacked_cubes, tmp_pat
     assert _rows(out) == STEPS
 
 
+def test_a_second_signal_inside_a_c_extension_still_stops_cleanly(stacked_cubes, tmp_path,
+                                                                  monkeypatch, capsys):
+    """The second signal stops at once by raising KeyboardInterrupt, which a C extension
+    running at that moment may hand back as its own error (pymetis, inside METIS:
+    "RuntimeError: Caught an unknown exception!"). The run still ends as interrupted:
+    exit status 130, run.json written, no traceback, resumable."""
+    from ipcsim.simulation import Simulation
+
+    step = Simulation.step
+
+    def step_then_signals(self):
+        if self.state.step == 3:
+            signal.raise_signal(signal.SIGTERM)  # stop after this step
+            try:
+                signal.raise_signal(signal.SIGTERM)  # stop at once, inside "the extension"
+            except KeyboardInterrupt:
+                raise RuntimeError("Caught an unknown exception!") from None
+        return step(self)
+
+    monkeypatch.setattr(Simulation, "step", step_then_signals)
+    out = tmp_path / "twice"
+    assert main(["run", str(stacked_cubes), "-o", str(out), "-q", "--steps", "8"]) == 130
+    assert "--resume" in capsys.readouterr().err
+    info = json.loads((out / "run.json").read_text())
+    assert info["steps_done"] == 3 and info["status"] != "ok"
+    monkeypatch.setattr(Simulation, "step", step)
+    assert main(["run", str(stacked_cubes), "-o", str(out), "-q", "--steps", "8",
+                 "--resume"]) == 0
+    assert _rows(out) == 8
+
+
 def test_resume_refuses_a_different_scene_and_a_folder_without_checkpoint(stacked_cubes,
                                                                           tmp_path, capsys):
     out = tmp_path / "run"
