@@ -99,6 +99,7 @@ class StepObjective:
         self.pullable = pullable
         self.small_step = small_step
         self.pull: BoundaryPull | None = None
+        self._kinematic = ctx.kinematic  # changes with the pull only (_set_pull)
         self._schedule: PullSchedule | None = None
         self.revision = 0
         self.last_ccd_alpha = 1.0  # CCD's α at this step's previous line search
@@ -110,11 +111,7 @@ class StepObjective:
     @property
     def kinematic(self) -> np.ndarray:
         """The vertices Newton eliminates: the prescribed ones, but those being pulled."""
-        if self.pull is None:
-            return self.ctx.kinematic
-        free = self.ctx.kinematic.copy()
-        free[self.pull.vertices] = False
-        return free
+        return self._kinematic
 
     @property
     def target(self) -> np.ndarray:
@@ -210,6 +207,10 @@ class StepObjective:
 
     def _set_pull(self, pull: BoundaryPull | None) -> None:
         self.pull = pull
+        self._kinematic = self.ctx.kinematic
+        if pull is not None:
+            self._kinematic = self._kinematic.copy()
+            self._kinematic[pull.vertices] = False
         terms = self._base_potential.terms
         self.potential = (self._base_potential if pull is None
                           else IncrementalPotential(terms + (WeightedTerm(pull),)))

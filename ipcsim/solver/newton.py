@@ -112,7 +112,6 @@ class NewtonSolver:
             if not np.isfinite(ev.gradient).all():
                 raise NonFiniteError("gradient", objective.nonfinite_terms(x), it)
             p, remaining = self._direction(objective, x, ev, run, it)
-            kin_dofs = np.repeat(objective.kinematic, 3)
             step_norm = np.abs(p[~kin_dofs]).max(initial=0.0)
             row = {"iteration": it, "step_inf_norm": step_norm, "tolerance": tol,
                    "gradient_norm": float(np.linalg.norm(ev.gradient[~kin_dofs])),
@@ -146,6 +145,7 @@ class NewtonSolver:
                 run.iterations = it + 1
                 return self._finish(objective, x, run, converged=True)
             objective.follow_up(x, p, first=it == 0)  # may pull prescribed vertices
+            kin_dofs = np.repeat(objective.kinematic, 3)  # a pull frees its vertices
         run.iterations = self.settings.max_newton_iterations
         return self._finish(objective, x, run, converged=False, hit_cap=True)
 
