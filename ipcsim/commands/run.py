@@ -53,8 +53,11 @@ def load(args):
 def main(args) -> int:
     from ..runner import run
 
+    from ..kernels.aot import load_lapack_alone
+
     if not args.quiet:
         _tell_when_compiling()
+    load_lapack_alone()
     spec = load(args)
     mode = "resume" if args.resume else ("overwrite" if args.overwrite else "new")
     run(spec, args.output, steps=args.steps, mode=mode, render=args.render,
