@@ -218,3 +218,37 @@ def scatter_element_blocks(data, slots, vals, scale, elements, free_index, p, co
                         r = -2  # a kinematic row: its entries are dropped
                 if r >= 0:
                     coupling[r] += v * p[3 * elements[e, j // 3] + j % 3]
+
+
+@njit(cache=True)
+def block_graph(indptr, indices, n, block):
+    """The graph METIS orders, from a symmetric CSC pattern (indptr, indices) of n DOFs:
+    one node per group of ``block`` consecutive DOFs (a vertex's), an edge between two
+    groups that share an entry. As METIS reads it: (xadj, adjncy) int64, each node's
+    neighbours sorted, no self-loops. A symmetric pattern gives a symmetric graph; it is
+    built from the columns alone, with one mark per group (no array per entry)."""
+    groups = (n + block - 1) // block
+    mark = np.full(groups, -1, dtype=np.int64)
+    xadj = np.zeros(groups + 1, dtype=np.int64)
+    for g in range(groups):  # count each group's distinct neighbours
+        for c in range(g * block, min((g + 1) * block, n)):
+            for k in range(indptr[c], indptr[c + 1]):
+                h = indices[k] // block
+                if h != g and mark[h] != g:
+                    mark[h] = g
+                    xadj[g + 1] += 1
+    for g in range(groups):
+        xadj[g + 1] += xadj[g]
+    adjncy = np.empty(xadj[groups], dtype=np.int64)
+    mark[:] = -1
+    for g in range(groups):  # fill them in, then sort each node's list
+        o = xadj[g]
+        for c in range(g * block, min((g + 1) * block, n)):
+            for k in range(indptr[c], indptr[c + 1]):
+                h = indices[k] // block
+                if h != g and mark[h] != g:
+                    mark[h] = g
+                    adjncy[o] = h
+                    o += 1
+        adjncy[xadj[g]:o].sort()
+    return xadj, adjncy

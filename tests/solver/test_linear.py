@@ -170,6 +170,24 @@ def test_group_nested_dissection_is_a_permutation(n):
         assert np.all(perm.reshape(-1, 3) - perm.reshape(-1, 3)[:, :1] == np.arange(3))
 
 
+@pytest.mark.parametrize("n", [2, 3, 299, 300, 301])
+def test_the_block_graph_is_the_groups_coupling_graph(n):
+    """METIS's graph, built column by column, is the one defined entry by entry: every pair
+    of DOF groups that share a stored entry, both ways, sorted, no self-loops."""
+    from ipcsim.kernels.assembly import block_graph
+
+    A = block_spd(max(2, (n + 2) // 3), seed=n, extra_pairs=n)[:n, :n].tocsc()
+    xadj, adjncy = block_graph(A.indptr, A.indices, n, 3)
+    groups = (n + 2) // 3
+    col = np.repeat(np.arange(n), np.diff(A.indptr)) // 3
+    row = A.indices // 3
+    pairs = {(int(r), int(c)) for r, c in zip(row, col) if r != c}
+    expected = [sorted(h for g2, h in pairs if g2 == g) for g in range(groups)]
+    assert xadj.dtype == adjncy.dtype == np.int64
+    assert len(xadj) == groups + 1 and xadj[0] == 0
+    assert [list(adjncy[xadj[g]:xadj[g + 1]]) for g in range(groups)] == expected
+
+
 def test_unknown_name_raises():
     with pytest.raises(ValueError, match="unknown linear solver"):
         make_solver("umfpack")
