@@ -143,19 +143,21 @@ def bucket_rows(rows, cols, free_index, fill, bucket):
 @njit(cache=True)
 def unique_column_rows(start, bucket):
     """CSC (indptr, indices) int32 of the distinct rows of each column's bucket
-    bucket[start[c]:start[c + 1]], sorted."""
+    bucket[start[c]:start[c + 1]], sorted. ``bucket`` is scratch: each column is sorted in
+    place and its distinct rows moved to the front (they never overtake what is still to
+    be read), so no second array of the bucket's size is made."""
     n = start.shape[0] - 1
     indptr = np.zeros(n + 1, dtype=np.int32)
-    indices = np.empty(bucket.shape[0], dtype=np.int32)
     o = 0
     for c in range(n):
-        rows = np.sort(bucket[start[c]:start[c + 1]])
+        rows = bucket[start[c]:start[c + 1]]
+        rows.sort()
         for i in range(rows.shape[0]):
             if i == 0 or rows[i] != rows[i - 1]:
-                indices[o] = rows[i]
+                bucket[o] = rows[i]
                 o += 1
         indptr[c + 1] = o
-    return indptr, indices[:o].copy()
+    return indptr, bucket[:o].copy()
 
 
 @njit(cache=True)
