@@ -143,19 +143,23 @@ def bucket_rows(rows, cols, free_index, fill, bucket):
 @njit(cache=True)
 def unique_column_rows(start, bucket):
     """CSC (indptr, indices) int32 of the distinct rows of each column's bucket
-    bucket[start[c]:start[c + 1]], sorted. ``bucket`` is scratch: each column is sorted in
-    place and its distinct rows moved to the front (they never overtake what is still to
-    be read), so no second array of the bucket's size is made."""
+    bucket[start[c]:start[c + 1]], sorted. ``bucket`` is scratch: each column's distinct
+    rows are moved to the front (they never overtake what is still to be read) and
+    sorted there, found with one mark per row, so only the distinct rows are sorted (a
+    tet mesh's column holds its 40-odd distinct rows several times over)."""
     n = start.shape[0] - 1
     indptr = np.zeros(n + 1, dtype=np.int32)
+    last_column = np.full(n, -1, dtype=np.int64)  # the last column each row was seen in
     o = 0
     for c in range(n):
-        rows = bucket[start[c]:start[c + 1]]
-        rows.sort()
-        for i in range(rows.shape[0]):
-            if i == 0 or rows[i] != rows[i - 1]:
-                bucket[o] = rows[i]
+        first = o
+        for k in range(start[c], start[c + 1]):
+            r = bucket[k]
+            if last_column[r] != c:
+                last_column[r] = c
+                bucket[o] = r
                 o += 1
+        bucket[first:o].sort()
         indptr[c + 1] = o
     return indptr, bucket[:o].copy()
 
