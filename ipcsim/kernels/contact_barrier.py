@@ -50,7 +50,7 @@ HESSIAN_BLOCK = 144  # triplets per active pair (12 x 12 local Hessian)
 
 
 # =========================================================================================
-# One pair (12-DOF stencil). V is the (4, 3) array of the pair's vertices, dtype its
+# One pair (12-DOF stencil). V holds the pair's four vertices (gather_stencil), dtype its
 # distance type; every function returns 0 / zeros for an inactive pair (d² ≥ ŝ).
 # =========================================================================================
 
@@ -155,12 +155,13 @@ def edge_edge_barrier_hessian(V, dtype, eps_x, s_hat, kappa):
 
 @njit(cache=True, error_model="numpy")
 def gather_stencil(x, pair):
-    """The (4, 3) array of the stencil's vertex positions: V[k] = x[pair[k]]."""
-    V = np.empty((4, 3))
-    for k in range(4):
-        for a in range(3):
-            V[k, a] = x[pair[k], a]
-    return V
+    """The stencil's four vertex positions, V[k] = x[pair[k]], as a tuple of 3-tuples:
+    plain values, not an array, so the distance functions they go to are compiled for
+    values in registers (an array per pair, and a view of it per vertex, made a pair's
+    classification and distance 8× slower: 560 against 67 ns)."""
+    a, b, c, d = pair[0], pair[1], pair[2], pair[3]
+    return ((x[a, 0], x[a, 1], x[a, 2]), (x[b, 0], x[b, 1], x[b, 2]),
+            (x[c, 0], x[c, 1], x[c, 2]), (x[d, 0], x[d, 1], x[d, 2]))
 
 
 # --- one pair of the global arrays (keeps the parallel loop bodies small) -----------------
