@@ -51,9 +51,8 @@ def load(args):
 
 
 def main(args) -> int:
-    from ..runner import run
-
     from ..kernels.aot import load_lapack_alone
+    from ..runner import run
 
     if not args.quiet:
         _tell_when_compiling()

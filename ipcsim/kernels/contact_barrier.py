@@ -34,7 +34,7 @@ from ipcsim.kernels.distance import (
     point_triangle_distance_sq_hessian,
     point_triangle_distance_type,
 )
-from ipcsim.kernels.linalg import ordered_sum, project_psd
+from ipcsim.kernels.linalg import ordered_sum, point3, project_psd
 from ipcsim.kernels.scatter import scatter_stencil_gradients
 from ipcsim.kernels.mollifier import (
     edge_edge_cross_sq,
@@ -159,9 +159,7 @@ def gather_stencil(x, pair):
     plain values, not an array, so the distance functions they go to are compiled for
     values in registers (an array per pair, and a view of it per vertex, made a pair's
     classification and distance 8× slower: 560 against 67 ns)."""
-    a, b, c, d = pair[0], pair[1], pair[2], pair[3]
-    return ((x[a, 0], x[a, 1], x[a, 2]), (x[b, 0], x[b, 1], x[b, 2]),
-            (x[c, 0], x[c, 1], x[c, 2]), (x[d, 0], x[d, 1], x[d, 2]))
+    return point3(x, pair[0]), point3(x, pair[1]), point3(x, pair[2]), point3(x, pair[3])
 
 
 # --- one pair of the global arrays (keeps the parallel loop bodies small) -----------------

@@ -58,7 +58,7 @@ import numpy as np
 from ipcsim.kernels.jit import njit
 
 from ipcsim.kernels.broad_phase import build_bvh, primitive_boxes, query_bvh
-from ipcsim.kernels.linalg import tet_signed_volumes
+from ipcsim.kernels.linalg import point3, tet_signed_volumes
 from ipcsim.kernels.twin import kernel
 
 _EPS = 2.0**-53
@@ -472,18 +472,12 @@ def segment_triangle_intersection(p, q, a, b, c):
 
 
 @njit(cache=True)
-def _point(x, i):
-    # row i of x as a tuple (values, no array view)
-    return (x[i, 0], x[i, 1], x[i, 2])
-
-
-@njit(cache=True)
 def tet_orientations(x, tets, signs, volumes):
     """signs[t] = exact orient3d of tet t (int8); volumes[t] = its floating-point signed
     volume det[b-a, c-a, d-a] / 6 (``linalg.tet_signed_volumes``, not exact)."""
     for t in range(tets.shape[0]):
-        signs[t] = orient3d(_point(x, tets[t, 0]), _point(x, tets[t, 1]),
-                            _point(x, tets[t, 2]), _point(x, tets[t, 3]))
+        signs[t] = orient3d(point3(x, tets[t, 0]), point3(x, tets[t, 1]),
+                            point3(x, tets[t, 2]), point3(x, tets[t, 3]))
     volumes[:] = tet_signed_volumes(x, tets)
 
 
@@ -522,15 +516,15 @@ def edge_triangle_candidates(x, edges, triangles, edge_body, triangle_body):
 def classify_edge_triangle_pairs(x, edges, triangles, pairs):
     """kinds[i] = segment_triangle_intersection of pair i (0 none, 1 transversal, 2 coplanar).
 
-    The points go in as tuples (``_point``), not as row views of x: a view per point,
-    with its reference count, cost more than the predicates themselves."""
+    The points go in as tuples (``linalg.point3``), not as row views of x: a view per
+    point, with its reference count, cost more than the predicates themselves."""
     kinds = np.zeros(pairs.shape[0], np.int8)
     for i in range(pairs.shape[0]):
         e = pairs[i, 0]
         t = pairs[i, 1]
         kinds[i] = segment_triangle_intersection(
-            _point(x, edges[e, 0]), _point(x, edges[e, 1]),
-            _point(x, triangles[t, 0]), _point(x, triangles[t, 1]),
-            _point(x, triangles[t, 2]),
+            point3(x, edges[e, 0]), point3(x, edges[e, 1]),
+            point3(x, triangles[t, 0]), point3(x, triangles[t, 1]),
+            point3(x, triangles[t, 2]),
         )
     return kinds

@@ -68,33 +68,31 @@ def _symmetric_csc_arrays(A):
 
 
 class _LowerPattern:
-    """The lower triangle of a symmetric CSC pattern: which stored entries it keeps and
-    where each column's part starts. Built once per pattern; ``values(data)`` is a single
-    gather. The row and column of each kept entry (16 bytes an entry) are made when a
-    backend builds its matrix (``rows_and_columns``), not kept."""
+    """The lower triangle of a symmetric CSC pattern: which stored entries it keeps
+    (``mask``) and where each column's part starts (``indptr``). Built once per pattern;
+    ``values(data)`` is a single gather. The row and column of each kept entry (16 bytes
+    an entry) are made when a backend builds its matrix (``rows_and_columns``), not kept."""
 
     def __init__(self, indptr, indices, n):
         self.indptr_full = np.array(indptr, copy=True)
         self.indices_full = np.array(indices, copy=True)
         self.n = n
-        col = self._columns()
+        col = np.repeat(np.arange(n, dtype=np.int64), np.diff(self.indptr_full))
         self.mask = self.indices_full >= col
         self.indptr = np.zeros(n + 1, dtype=np.int64)
         np.cumsum(np.bincount(col[self.mask], minlength=n), out=self.indptr[1:])
-        # sorted indices: a column's lower part starts at its diagonal when that is stored
-        starts = self.indptr[:-1]
-        rows = self.indices_full[self.mask]
-        self.has_diagonal = bool(np.all(starts < self.indptr[1:])
-                                 and np.array_equal(rows[starts], np.arange(n)))
-
-    def _columns(self) -> np.ndarray:
-        """The column of every stored entry of the full pattern."""
-        return np.repeat(np.arange(self.n, dtype=np.int64), np.diff(self.indptr_full))
 
     def rows_and_columns(self) -> tuple[np.ndarray, np.ndarray]:
         """(row, column), int64, of each kept entry, in column order."""
         return (self.indices_full[self.mask].astype(np.int64),
-                self._columns()[self.mask])
+                np.repeat(np.arange(self.n, dtype=np.int64), np.diff(self.indptr)))
+
+    def has_diagonal(self, rows) -> bool:
+        """Whether every diagonal entry is stored, given the kept entries' ``rows``: with
+        sorted indices a column's lower part starts at its diagonal when that is stored."""
+        starts = self.indptr[:-1]
+        return bool(np.all(starts < self.indptr[1:])
+                    and np.array_equal(rows[starts], np.arange(self.n)))
 
     def same(self, indptr, indices) -> bool:
         return (len(indices) == len(self.indices_full)
@@ -388,13 +386,14 @@ class PardisoSolver(_Factorising):
         if n >= 2**31 or len(indices) >= 2**31:
             raise SolverError("matrix too large for 32-bit PARDISO indices")
         pat = _LowerPattern(indptr, indices, n)
-        if not pat.has_diagonal:  # PARDISO needs every diagonal entry stored; SPD needs it > 0
+        rows, _ = pat.rows_and_columns()
+        if not pat.has_diagonal(rows):  # PARDISO needs every diagonal entry; SPD needs it > 0
             raise SolverError("matrix has a structurally zero diagonal entry (not positive definite)")
         self._release()
         self._pattern, self._n = pat, n
         # lower CSC of a symmetric matrix = upper CSR, the layout PARDISO reads
         self._ia = pat.indptr.astype(np.int32)
-        self._ja = pat.rows_and_columns()[0].astype(np.int32)
+        self._ja = rows.astype(np.int32)
         self._a = pat.values(data)
         return True
 
