@@ -12,10 +12,12 @@ The BVH sorts primitives by the Morton code of their box centre and groups them 
 ``LEAF_SIZE`` consecutive primitives; the leaves are the bottom of a complete binary tree stored
 in heap order (node i has children 2i+1 and 2i+2, the ``n_leaf_slots`` leaves are the last
 nodes). Padding leaves hold an empty box (lo = +inf, hi = -inf) that overlaps nothing. The tree
-is built in O(n log n) (the sort) and queried per primitive box, in parallel. A first pass
-counts each query's hits and keeps up to ``_BUFFER`` of them in the query's own row; the output
-is filled at prefix-sum offsets (queries with more hits walk the tree again), so every query
-writes only its own slots and the output is the same for any number of threads. Within one
+is built in O(n log n) (the sort) and queried in parallel, by groups of primitives next in
+Morton order: one walk with the group's union box finds the leaves, then each query tests
+those leaves' boxes. A first pass counts each query's hits and keeps up to ``_BUFFER`` of
+them in the query's own row; the output is filled at prefix-sum offsets (queries with more
+hits walk the tree again), so every query writes only its own slots and the output is the
+same for any number of threads. Within one
 primitive set (EE) a query only visits leaf slots after its own, so each pair is found once.
 
 Why a BVH: sort-and-sweep along one axis degenerates on flat, axis-aligned faces (every
@@ -152,31 +154,14 @@ def _overlaps(b, i, q0, q1, q2, q3, q4, q5):
 
 
 @njit(cache=True)
-def _keep_pair(qi, j, query, tree, self_collision):
-    qprims, qtags = query[1], query[2]
-    tprims, ttags = tree[4], tree[5]
-    if not self_collision and qtags[qi, 0] == ttags[j, 0]:
-        return False
-    if qtags[qi, 1] != 0 and ttags[j, 1] != 0:  # kinematic against kinematic
-        return False
-    for a in range(qprims.shape[1]):
-        for b in range(tprims.shape[1]):
-            if qprims[qi, a] == tprims[j, b]:
-                return False
-    return True
-
-
-@njit(cache=True)
-def _traverse(qi, min_slot, query, tree, self_collision, dst, stack):
-    # depth-first walk with the box of query qi over the slots > min_slot; the first
-    # len(dst) hits (tree primitive indices) go to dst; returns the number of hits
-    qboxes = query[0]
-    nodes, leaf_boxes, order, last_slot = tree[0], tree[1], tree[2], tree[3]
-    q0, q1, q2 = qboxes[qi, 0], qboxes[qi, 1], qboxes[qi, 2]
-    q3, q4, q5 = qboxes[qi, 3], qboxes[qi, 4], qboxes[qi, 5]
-    m = leaf_boxes.shape[0]
+def _leaves_met(box, min_slot, tree, leaves, stack):
+    # depth-first walk with box = (lo_x, lo_y, lo_z, hi_x, hi_y, hi_z) over the slots
+    # > min_slot: the leaves (heap node numbers, in slot order) whose boxes overlap it; the
+    # first len(leaves) go to leaves; returns how many there are
+    nodes, last_slot = tree[0], tree[3]
+    q0, q1, q2, q3, q4, q5 = box
     first_leaf = (nodes.shape[0] + 1) // 2 - 1
-    cap = dst.shape[0]
+    cap = leaves.shape[0]
     stack[0] = 0
     sp = 1
     count = 0
@@ -186,14 +171,9 @@ def _traverse(qi, min_slot, query, tree, self_collision, dst, stack):
         if last_slot[nd] <= min_slot or not _overlaps(nodes, nd, q0, q1, q2, q3, q4, q5):
             continue
         if nd >= first_leaf:
-            lf = nd - first_leaf
-            for s in range(max(lf * LEAF_SIZE, min_slot + 1), min((lf + 1) * LEAF_SIZE, m)):
-                if _overlaps(leaf_boxes, s, q0, q1, q2, q3, q4, q5):
-                    j = order[s]
-                    if _keep_pair(qi, j, query, tree, self_collision):
-                        if count < cap:
-                            dst[count] = j
-                        count += 1
+            if count < cap:
+                leaves[count] = nd
+            count += 1
         else:
             stack[sp] = 2 * nd + 2
             stack[sp + 1] = 2 * nd + 1
@@ -201,19 +181,103 @@ def _traverse(qi, min_slot, query, tree, self_collision, dst, stack):
     return count
 
 
+@njit(cache=True)
+def _union_box(qboxes, qorder, g0, g1):
+    # the box of the queries qorder[g0:g1]; a NaN box overlaps nothing, so it is skipped
+    u0 = u1 = u2 = np.inf
+    u3 = u4 = u5 = -np.inf
+    for s in range(g0, g1):
+        qi = qorder[s]
+        if qboxes[qi, 0] < u0:
+            u0 = qboxes[qi, 0]
+        if qboxes[qi, 1] < u1:
+            u1 = qboxes[qi, 1]
+        if qboxes[qi, 2] < u2:
+            u2 = qboxes[qi, 2]
+        if qboxes[qi, 3] > u3:
+            u3 = qboxes[qi, 3]
+        if qboxes[qi, 4] > u4:
+            u4 = qboxes[qi, 4]
+        if qboxes[qi, 5] > u5:
+            u5 = qboxes[qi, 5]
+    return u0, u1, u2, u3, u4, u5
+
+
+@njit(cache=True)
+def _scan_leaves(qi, min_slot, leaves, n_leaves, query, tree, self_collision, dst):
+    # the kept pairs of query qi among the slots > min_slot of the given leaves (in slot
+    # order): the first len(dst) tree primitive indices go to dst; returns their number.
+    # The pair filter is written out here: as a call taking the arrays it cost twice
+    # the whole scan (reference counts), and most overlapping boxes share a vertex
+    qboxes, qprims, qtags = query
+    nodes, leaf_boxes, order, last_slot, tprims, ttags = tree
+    q0, q1, q2 = qboxes[qi, 0], qboxes[qi, 1], qboxes[qi, 2]
+    q3, q4, q5 = qboxes[qi, 3], qboxes[qi, 4], qboxes[qi, 5]
+    qa = qprims[qi, 0]  # a query primitive is a point or an edge: its first and last
+    qb = qprims[qi, qprims.shape[1] - 1]  # vertex are all of them
+    qbody = qtags[qi, 0]
+    qkinematic = qtags[qi, 1] != 0
+    kt = tprims.shape[1]
+    m = leaf_boxes.shape[0]
+    first_leaf = (nodes.shape[0] + 1) // 2 - 1
+    cap = dst.shape[0]
+    count = 0
+    for k in range(n_leaves):
+        nd = leaves[k]
+        if not _overlaps(nodes, nd, q0, q1, q2, q3, q4, q5):
+            continue
+        lf = nd - first_leaf
+        for s in range(max(lf * LEAF_SIZE, min_slot + 1), min((lf + 1) * LEAF_SIZE, m)):
+            if not _overlaps(leaf_boxes, s, q0, q1, q2, q3, q4, q5):
+                continue
+            j = order[s]
+            # dropped: same body without self collision, both kinematic, a shared vertex
+            keep = self_collision or qbody != ttags[j, 0]
+            if keep and qkinematic and ttags[j, 1] != 0:
+                keep = False
+            for b in range(kt):
+                v = tprims[j, b]
+                if v == qa or v == qb:
+                    keep = False
+            if keep:
+                if count < cap:
+                    dst[count] = j
+                count += 1
+    return count
+
+
+@njit(cache=True)
+def _pairs_of_one(qi, min_slot, query, tree, self_collision, dst, stack):
+    # every kept pair of query qi walked alone (a query whose hits overflowed its buffer)
+    n = _leaves_met(_union_box(query[0], np.array([qi]), 0, 1), min_slot, tree,
+                    np.empty(0, np.int64), stack)
+    leaves = np.empty(n, np.int64)
+    _leaves_met(_union_box(query[0], np.array([qi]), 0, 1), min_slot, tree, leaves, stack)
+    return _scan_leaves(qi, min_slot, leaves, n, query, tree, self_collision, dst)
+
+
 _BUFFER = 16  # hits kept per query in the first pass; queries with more are walked again
 _CHUNK = 256  # queries per parallel task
+_GROUP = 8  # consecutive (Morton-ordered) queries that walk the tree together
+_GROUP_LEAVES = 256  # leaves a group's walk keeps; a group that meets more walks again
 
 
 @kernel(parallel=True)
 def query_bvh(query, tree, same_set, self_collision):
     """All kept pairs ``(k, 2) = [query primitive, tree primitive]`` whose boxes overlap.
 
-    ``query = (boxes, prims, tags)`` of the query primitives; ``tree = (nodes, leaf_boxes,
-    order, last_slot, prims, tags)``: :func:`build_bvh` of the tree primitives' boxes, their
-    vertex indices and their tags. ``same_set``: query and tree are the same primitives (with
-    the same boxes); each pair is reported once, as (i, j) with i < j.
-    Rows come in a fixed order (by the Morton order of the query boxes)."""
+    ``query = (boxes, prims, tags)`` of the query primitives (points or edges); ``tree =
+    (nodes, leaf_boxes, order, last_slot, prims, tags)``: :func:`build_bvh` of the tree
+    primitives' boxes, their vertex indices and their tags. ``same_set``: query and tree
+    are the same primitives (with the same boxes); each pair is reported once, as (i, j)
+    with i < j. Rows come in a fixed order (by the Morton order of the query boxes, then
+    by leaf slot).
+
+    Queries walk the tree in groups of ``_GROUP`` consecutive ones in Morton order (close
+    together in space): one walk with the union of their boxes finds the leaves any of
+    them may meet, and each query then tests those leaves alone."""
+    if query[1].shape[1] > 2:
+        raise ValueError("a query primitive is a point or an edge")
     if same_set:
         qorder = tree[2]
         nq = qorder.shape[0]
@@ -225,10 +289,19 @@ def query_bvh(query, tree, same_set, self_collision):
     buf = np.empty((nq, _BUFFER), np.int64)
     for c in prange(n_chunks):
         stack = np.empty(_STACK, np.int64)
-        for s in range(c * _CHUNK, min((c + 1) * _CHUNK, nq)):
-            min_slot = s if same_set else -1
-            counts[s + 1] = _traverse(qorder[s], min_slot, query, tree, self_collision,
-                                      buf[s], stack)
+        kept = np.empty(_GROUP_LEAVES, np.int64)
+        for g0 in range(c * _CHUNK, min((c + 1) * _CHUNK, nq), _GROUP):
+            g1 = min(g0 + _GROUP, (c + 1) * _CHUNK, nq)
+            group_min_slot = g0 if same_set else -1
+            box = _union_box(query[0], qorder, g0, g1)
+            n_leaves = _leaves_met(box, group_min_slot, tree, kept, stack)
+            leaves = kept
+            if n_leaves > kept.shape[0]:
+                leaves = np.empty(n_leaves, np.int64)
+                _leaves_met(box, group_min_slot, tree, leaves, stack)
+            for s in range(g0, g1):
+                counts[s + 1] = _scan_leaves(qorder[s], s if same_set else -1, leaves,
+                                             n_leaves, query, tree, self_collision, buf[s])
     offsets = np.cumsum(counts)
     out = np.empty((offsets[nq], 2), np.int64)
     for c in prange(n_chunks):
@@ -239,7 +312,8 @@ def query_bvh(query, tree, same_set, self_collision):
             o = offsets[s]
             if k > _BUFFER:  # overflow: walk again into a buffer of the exact size
                 full = np.empty(k, np.int64)
-                _traverse(qi, s if same_set else -1, query, tree, self_collision, full, stack)
+                _pairs_of_one(qi, s if same_set else -1, query, tree, self_collision, full,
+                              stack)
                 for r in range(k):
                     out[o + r, 0] = qi
                     out[o + r, 1] = full[r]

@@ -267,6 +267,22 @@ def test_many_hits_per_query_overflow_path():
     assert n_pt > bp._BUFFER and n_ee > bp._BUFFER
 
 
+def test_a_group_of_queries_meeting_more_leaves_than_it_keeps():
+    """Queries walk the tree in groups; a group whose boxes span more leaves than the
+    walk keeps (a few points swept across the whole scene) walks again, and each query
+    still gets every pair."""
+    rng = np.random.default_rng(8)
+    n_tris = bp.LEAF_SIZE * bp._GROUP_LEAVES * 2
+    x, tris = _triangle_soup(rng, n_tris, 0.003)
+    x[:9] -= 1.0
+    x1 = x.copy()
+    x1[:9] += 3.0  # three triangles swept across everything
+    body = np.zeros(len(x), np.int64)
+    kin = np.zeros(len(x), bool)
+    n_pt, n_ee = _check(x, x1, tris, 0.0, body, True, kin)
+    assert n_pt > bp.LEAF_SIZE * bp._GROUP_LEAVES and n_ee > bp._BUFFER
+
+
 def test_bvh_root_box_holds_everything():
     rng = np.random.default_rng(11)
     x, tris = _triangle_soup(rng, 37, 0.1)
