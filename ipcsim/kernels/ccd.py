@@ -101,94 +101,107 @@ def edge_edge_distance_sq(q):
 
 @njit(cache=True)
 def _distance(q, is_pt):
+    # the distance of a stencil given as a tuple of four points
     if is_pt:
-        return np.sqrt(point_triangle_distance_sq(q))
-    return np.sqrt(edge_edge_distance_sq(q))
+        return np.sqrt(pt_distance_sq_of_points(q[0], q[1], q[2], q[3]))
+    return np.sqrt(ee_distance_sq_of_points(q[0], q[1], q[2], q[3]))
 
 
-@njit(cache=True)
-def _load(x0, x1, stencil, q0, dq):
-    for r in range(4):
-        v = stencil[r]
-        for a in range(3):
-            q0[r, a] = x0[v, a]
-            dq[r, a] = x1[v, a] - x0[v, a]
+# The per-query helpers read a stencil's points into tuples (registers) and are inlined at
+# the numba IR level: a call that takes arrays, or views of them, costs atomic reference
+# counts per array, which was most of a query's cost.
+
+@njit(cache=True, inline="always")
+def _stencil(x0, x1, stencils, k):
+    # (q0, dq): the four points of stencil k at t = 0 and their motions x1 - x0
+    a, b, c, d = stencils[k, 0], stencils[k, 1], stencils[k, 2], stencils[k, 3]
+    q0 = ((x0[a, 0], x0[a, 1], x0[a, 2]), (x0[b, 0], x0[b, 1], x0[b, 2]),
+          (x0[c, 0], x0[c, 1], x0[c, 2]), (x0[d, 0], x0[d, 1], x0[d, 2]))
+    dq = ((x1[a, 0] - x0[a, 0], x1[a, 1] - x0[a, 1], x1[a, 2] - x0[a, 2]),
+          (x1[b, 0] - x0[b, 0], x1[b, 1] - x0[b, 1], x1[b, 2] - x0[b, 2]),
+          (x1[c, 0] - x0[c, 0], x1[c, 1] - x0[c, 1], x1[c, 2] - x0[c, 2]),
+          (x1[d, 0] - x0[d, 0], x1[d, 1] - x0[d, 1], x1[d, 2] - x0[d, 2]))
+    return q0, dq
 
 
-@njit(cache=True)
-def _point_at(q0, dq, t, r):
-    # row r of q(t) = q0 + t·dq, as a tuple
-    return (q0[r, 0] + t * dq[r, 0], q0[r, 1] + t * dq[r, 1], q0[r, 2] + t * dq[r, 2])
+@njit(cache=True, inline="always")
+def _point_at(p, dp, t):
+    # p + t·dp
+    return (p[0] + t * dp[0], p[1] + t * dp[1], p[2] + t * dp[2])
 
 
 @njit(cache=True)
 def _distance_at(q0, dq, t, is_pt):
-    # _distance of q(t) = q0 + t·dq, without writing q(t) to an array
-    a = _point_at(q0, dq, t, 0)
-    b = _point_at(q0, dq, t, 1)
-    c = _point_at(q0, dq, t, 2)
-    d = _point_at(q0, dq, t, 3)
-    if is_pt:
-        return np.sqrt(pt_distance_sq_of_points(a, b, c, d))
-    return np.sqrt(ee_distance_sq_of_points(a, b, c, d))
+    # _distance of q(t) = q0 + t·dq
+    q = (_point_at(q0[0], dq[0], t), _point_at(q0[1], dq[1], t),
+         _point_at(q0[2], dq[2], t), _point_at(q0[3], dq[3], t))
+    return _distance(q, is_pt)
 
 
-@njit(cache=True)
-def _relative_motion(dq, i, j):
-    dx = dq[i, 0] - dq[j, 0]
-    dy = dq[i, 1] - dq[j, 1]
-    dz = dq[i, 2] - dq[j, 2]
+@njit(cache=True, inline="always")
+def _relative_motion(u, v):
+    dx = u[0] - v[0]
+    dy = u[1] - v[1]
+    dz = u[2] - v[2]
     return np.sqrt(dx * dx + dy * dy + dz * dz)
 
 
 @njit(cache=True)
 def _motion_bound(dq, is_pt):
     # l_p: PT max_i |dt_i - dp|; EE max_{i in a, j in b} |da_i - db_j|
-    lp = 0.0
     if is_pt:
-        for j in range(1, 4):
-            lp = max(lp, _relative_motion(dq, 0, j))
-    else:
-        for i in range(2):
-            for j in range(2, 4):
-                lp = max(lp, _relative_motion(dq, i, j))
-    return lp
+        lp = max(0.0, _relative_motion(dq[0], dq[1]))
+        lp = max(lp, _relative_motion(dq[0], dq[2]))
+        return max(lp, _relative_motion(dq[0], dq[3]))
+    lp = max(0.0, _relative_motion(dq[0], dq[2]))
+    lp = max(lp, _relative_motion(dq[0], dq[3]))
+    lp = max(lp, _relative_motion(dq[1], dq[2]))
+    return max(lp, _relative_motion(dq[1], dq[3]))
 
 
 @njit(cache=True)
-def _init_query(x0, x1, stencil, is_pt, q0, dq, state):
-    # state = [t, d0, l_p, done, iterations]
-    _load(x0, x1, stencil, q0, dq)
+def _scale(q0, dq):
+    # the largest coordinate magnitude of the stencil at t = 0 and t = 1
     scale = 0.0
     for r in range(4):
+        p = q0[r]
+        dp = dq[r]
         for a in range(3):
-            scale = max(scale, abs(q0[r, a]), abs(q0[r, a] + dq[r, a]))
+            scale = max(scale, abs(p[a]), abs(p[a] + dp[a]))
+    return scale
+
+
+@njit(cache=True, inline="always")
+def _init_query(x0, x1, stencils, k, is_pt, state):
+    # state[k] = [t, d0, l_p, done, iterations]
+    q0, dq = _stencil(x0, x1, stencils, k)
+    scale = _scale(q0, dq)
     d0 = _distance(q0, is_pt)
     lp = _motion_bound(dq, is_pt)
-    state[_T] = 0.0
-    state[_D0] = d0
-    state[_LP] = lp
-    state[_ITERS] = 0.0
-    state[_DONE] = 0.0
+    state[k, _T] = 0.0
+    state[k, _D0] = d0
+    state[k, _LP] = lp
+    state[k, _ITERS] = 0.0
+    state[k, _DONE] = 0.0
     if not d0 > _TINY_REL * scale:  # touching (or NaN): no step
-        state[_DONE] = 1.0
+        state[k, _DONE] = 1.0
     elif lp == 0.0:  # no relative motion: the distance never changes
-        state[_T] = 1.0
-        state[_DONE] = 1.0
+        state[k, _T] = 1.0
+        state[k, _DONE] = 1.0
 
 
-@njit(cache=True)
-def _advance_query(x0, x1, stencil, is_pt, bufs, state, tmax, n_iter, f):
-    # at most n_iter ACCD steps from the safe time state[_T], never past tmax
-    q0, dq = bufs[0], bufs[1]
-    _load(x0, x1, stencil, q0, dq)
-    t = state[_T]
-    lp = state[_LP]
-    gap = f * state[_D0]
+@njit(cache=True, inline="always")
+def _advance_query(x0, x1, stencils, k, is_pt, state, tmax, n_iter, f):
+    # at most n_iter ACCD steps from the safe time state[k, _T], never past tmax
+    q0, dq = _stencil(x0, x1, stencils, k)
+    t = state[k, _T]
+    lp = state[k, _LP]
+    gap = f * state[k, _D0]
     s = (1.0 - f) * _STEP_SAFETY
     d = _distance_at(q0, dq, t, is_pt)
+    iters = state[k, _ITERS]
     for _ in range(n_iter):
-        state[_ITERS] += 1.0
+        iters += 1.0
         t_next = min(t + s * d / lp, tmax)  # d >= (1 - s)·d > 0 on [t, t_next]
         d_next = _distance_at(q0, dq, t_next, is_pt)
         if not d_next >= gap:  # the gap would fall under f·d0: one last, shorter step,
@@ -197,24 +210,25 @@ def _advance_query(x0, x1, stencil, is_pt, bufs, state, tmax, n_iter, f):
             if t_last > t:
                 if _distance_at(q0, dq, t_last, is_pt) >= gap:
                     t = t_last
-            state[_T] = t
-            state[_DONE] = 1.0
+            state[k, _T] = t
+            state[k, _DONE] = 1.0
+            state[k, _ITERS] = iters
             return
         t = t_next
         d = d_next
         if t >= tmax:
-            state[_T] = tmax
-            state[_DONE] = 1.0
+            state[k, _T] = tmax
+            state[k, _DONE] = 1.0
+            state[k, _ITERS] = iters
             return
-    state[_T] = t
+    state[k, _T] = t
+    state[k, _ITERS] = iters
 
 
 @njit(cache=True)
 def _init_chunk(x0, x1, stencils, n_pt, state, c):
-    q0 = np.empty((4, 3))
-    dq = np.empty((4, 3))
     for k in range(c * _CHUNK, min((c + 1) * _CHUNK, stencils.shape[0])):
-        _init_query(x0, x1, stencils[k], k < n_pt, q0, dq, state[k])
+        _init_query(x0, x1, stencils, k, k < n_pt, state)
 
 
 @njit(cache=True, parallel=True)
@@ -232,11 +246,10 @@ def _init_serial(x0, x1, stencils, n_pt, state):
 @njit(cache=True)
 def _advance_chunk(x0, x1, stencils, n_pt, state, active, params, c):
     # params = (tmax, iterations per query, f); every query writes only its own state row
-    bufs = np.empty((2, 4, 3))
+    tmax, n_iter, f = params[0], int(params[1]), params[2]
     for i in range(c * _CHUNK, min((c + 1) * _CHUNK, active.shape[0])):
         k = active[i]
-        _advance_query(x0, x1, stencils[k], k < n_pt, bufs, state[k], params[0],
-                       int(params[1]), params[2])
+        _advance_query(x0, x1, stencils, k, k < n_pt, state, tmax, n_iter, f)
 
 
 @njit(cache=True, parallel=True)
