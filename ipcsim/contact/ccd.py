@@ -51,20 +51,22 @@ class StepBound:
 
 
 def line_search_bound(mesh: CollisionMesh, x, p3, dhat: float,
-                      previous_alpha: float = 1.0) -> StepBound:
+                      previous_alpha: float = 1.0, reach: float = 0.0) -> StepBound:
     """The CCD bound of the direction p3 (n, 3) from x: over [0, β] with β = min(1,
-    2·previous_alpha) first, over [0, 1] only when nothing stops the motion inside β."""
+    2·previous_alpha) first, over [0, 1] only when nothing stops the motion inside β.
+    The pairs kept are those within d̂ + 2·reach of the motion: every pair within d̂ of
+    a point that lies within ``reach`` (per coordinate) of the segment."""
     beta = min(1.0, 2.0 * previous_alpha)
-    bound = _sweep(mesh, x, p3, dhat, beta)
+    bound = _sweep(mesh, x, p3, dhat, beta, reach)
     if beta < 1.0 and bound.alpha >= beta:
-        bound = _sweep(mesh, x, p3, dhat, 1.0)
+        bound = _sweep(mesh, x, p3, dhat, 1.0, reach)
     return bound
 
 
-def _sweep(mesh, x, p3, dhat, beta) -> StepBound:
+def _sweep(mesh, x, p3, dhat, beta, reach) -> StepBound:
     """Safe fraction of p within [0, β]; keeps the pairs the line search must see."""
     x1 = x + beta * p3
-    swept = swept_collisions(mesh, x, x1, dhat)  # a superset of CCD's candidates
+    swept = swept_collisions(mesh, x, x1, dhat + 2.0 * reach)  # a superset of CCD's
     if len(swept) == 0:
         return StepBound(beta, swept)
     alpha = beta * _ccd.ccd_max_step(x, x1, swept.pt, swept.ee, DEFAULT_MIN_GAP_FRACTION,
@@ -72,10 +74,12 @@ def _sweep(mesh, x, p3, dhat, beta) -> StepBound:
     if alpha < beta:
         # the line search only visits [x, x + αp]: the pairs swept over that part
         # alone are far fewer, which makes each of its energy evaluations cheaper
-        swept = swept.within_motion(x, x + alpha * p3, dhat)
+        swept = swept.within_motion(x, x + alpha * p3, dhat + 2.0 * reach)
     return StepBound(alpha, swept)
 
 
-def unbounded_step(mesh: CollisionMesh, x, p3, dhat: float) -> StepBound:
-    """No CCD (the penalty baseline): the whole step, with the pairs it sweeps."""
-    return StepBound(1.0, swept_collisions(mesh, x, x + p3, dhat))
+def unbounded_step(mesh: CollisionMesh, x, p3, dhat: float,
+                   reach: float = 0.0) -> StepBound:
+    """No CCD (the penalty baseline): the whole step, with the pairs it sweeps (within
+    d̂ + 2·reach, as in ``line_search_bound``)."""
+    return StepBound(1.0, swept_collisions(mesh, x, x + p3, dhat + 2.0 * reach))

@@ -97,7 +97,8 @@ def build_collisions(mesh: CollisionMesh, x: np.ndarray, dhat: float) -> Collisi
 
 def narrowed_collisions(swept: Collisions, x: np.ndarray, dhat: float) -> Collisions:
     """``build_collisions`` at x, taken from a set swept over a motion that passes
-    through x (a point x0 + α(x1 − x0) of it, α in [0, 1], computed as x0 + α·p): the
+    through x (a point x0 + α(x1 − x0) of it, α in [0, 1], computed as x0 + α·p, or one
+    within the reach the sweep's boxes were grown by): the
     swept boxes hold x's boxes, so the pairs whose boxes overlap at x are all there, and
     the same box test keeps exactly those, without a new BVH query. Only the order of
     the pairs may differ from a fresh query's."""

@@ -75,12 +75,33 @@ class LineSearch:
         self.objective.took(y, self.ctx.collisions)
         return y
 
+    def end_on_targets(self) -> np.ndarray:
+        """x + p with the prescribed vertices exactly on their targets (the end of a
+        direction that completes their motion, within round-off of x + p), remembered
+        as a point of this segment: the sweep kept the pairs of points that close
+        (``StepObjective.max_step``)."""
+        obj = self.objective
+        y = self.x + self.p3
+        y[obj.kinematic] = obj.target[obj.kinematic]
+        obj.took(y, self.ctx.collisions)
+        return y
+
     def energy_at(self, y: np.ndarray) -> float:
         """E at a point of the segment (e.g. one whose kinematic rows were snapped onto
         their targets)."""
         obj = self.objective
         with obj.timer("energy"):
             return obj.potential.value(y, self.ctx, obj.stiffness.kappa)
+
+
+def snap_reach(x: np.ndarray, target: np.ndarray) -> float:
+    """How far (per coordinate) ``LineSearch.end_on_targets`` may put a prescribed vertex
+    from x + p: with p = fl(t − x), |fl(x + p) − t| ≤ 2u(|t| + |x|) + O(u²), u = ε/2;
+    four times that, over the largest coordinates (0 without prescribed vertices)."""
+    if not x.size:
+        return 0.0
+    scale = max(np.abs(x).max(), np.abs(target).max())
+    return 4.0 * np.finfo(float).eps * float(scale)
 
 
 class StepObjective:
@@ -155,15 +176,20 @@ class StepObjective:
             ctx = self.ctx
             mesh = self.contact.mesh
             if mesh is not None:
+                reach = self._snap_reach(x)
                 if self.contact.ccd:
                     bound = line_search_bound(mesh, x, p3, self.contact.dhat,
-                                              self.last_ccd_alpha)
+                                              self.last_ccd_alpha, reach)
                 else:
-                    bound = unbounded_step(mesh, x, p3, self.contact.dhat)
+                    bound = unbounded_step(mesh, x, p3, self.contact.dhat, reach)
                 self.last_ccd_alpha = bound.alpha
                 alpha = min(alpha, bound.alpha)
                 ctx = dataclasses.replace(ctx, collisions=bound.collisions)
         return LineSearch(self, x, p3, alpha, ctx)
+
+    def _snap_reach(self, x: np.ndarray) -> float:
+        k = self.kinematic
+        return snap_reach(x[k], self.target[k])
 
     def resolved(self, x: np.ndarray, p: np.ndarray) -> bool:
         """The terms' own stopping tests (friction's static ramp) on the direction p."""

@@ -198,11 +198,10 @@ class NewtonSolver:
             alpha, failed, energy = self._backtrack(line, alpha, energy, it)
             if failed:
                 return x, 0.0, energy, True
-        x_new = line.point(alpha)
         if alpha == 1.0 and remaining > 0.0:
-            kinematic = objective.kinematic
-            x_new = x_new.copy()  # no longer a point of the segment
-            x_new[kinematic] = objective.target[kinematic]  # land exactly on the targets
+            x_new = line.end_on_targets()  # land exactly on the targets
+        else:
+            x_new = line.point(alpha)
         if not run.kinematic_complete:
             energy = line.energy_at(x_new)
             if not np.isfinite(energy):

@@ -90,3 +90,71 @@ def test_the_set_narrowed_from_a_sweep_is_the_query_at_each_point_of_it(falling_
         assert narrowed.count(DHAT) == fresh.count(DHAT)
         checked += len(fresh)
     assert checked > 0  # the segment passes pairs within d̂
+
+
+def test_the_reach_holds_every_end_snapped_onto_its_target():
+    """``LineSearch.end_on_targets`` puts prescribed vertices on their targets t instead
+    of fl(x + fl(t − x)); the sweep keeps the pairs of every point within the reach of
+    that end, so the reach must bound the difference: checked on coordinates of every
+    magnitude and sign."""
+    from ipcsim.potentials.objective import snap_reach
+
+    rng = np.random.default_rng(5)
+    worst = 0.0
+    for ex in range(-3, 4):
+        for et in range(-3, 4):
+            x = rng.normal(size=(2000, 3)) * 10.0 ** ex
+            t = rng.normal(size=x.shape) * 10.0 ** et
+            near = x + rng.normal(size=x.shape) * 1e-6 * 10.0 ** ex  # short motions too
+            for target in (t, near):
+                reach = snap_reach(x, target)
+                off = np.abs((x + (target - x)) - target).max()
+                assert off <= reach
+                worst = max(worst, off / reach)
+    assert worst > 0.05  # the bound is not vacuous: round-off reaches a part of it
+
+
+def test_the_set_at_a_prescribed_motions_end_is_narrowed_from_the_sweep(tmp_path,
+                                                                       monkeypatch):
+    """A body on a prescribed path: the first iteration of each step lands its vertices
+    exactly on their targets. The collision set there is narrowed from the line search's
+    sweep (no new broad phase), and it is exactly the set a fresh query finds."""
+    import ipcsim
+    import ipcsim.potentials.objective as objective_module
+    from generated import write_box_msh
+
+    write_box_msh(tmp_path / "box.msh")
+    (tmp_path / "scene.txt").write_text(
+        "shapes input 2\n"
+        "box.msh 0 0 0  0 0 0  1 1 1  DBC -1 -1 -1  2 2 2  0 0.4 0  0 0 0\n"
+        "box.msh 0.03 0.215 0.01  0 0 0  1 1 1\n"
+        "dHatAbs 0.004\nturnOffGravity\ntime 0.04 0.01\n")
+    ends, narrowed = [], []
+    line_end = objective_module.LineSearch.end_on_targets
+
+    def end_on_targets(self):
+        y = line_end(self)
+        ends.append(y)
+        return y
+
+    def checked_narrowing(swept, x, dhat):
+        got = narrowed_collisions(swept, x, dhat)
+        fresh = build_collisions(got_mesh[0], x, dhat)
+        assert _rows(got.pt) == _rows(fresh.pt) and _rows(got.ee) == _rows(fresh.ee)
+        narrowed.append((x, len(fresh)))
+        return got
+
+    got_mesh = []
+    from_model = CollisionMesh.from_model
+
+    def keep_mesh(model):
+        got_mesh.append(from_model(model))
+        return got_mesh[-1]
+
+    monkeypatch.setattr(objective_module.LineSearch, "end_on_targets", end_on_targets)
+    monkeypatch.setattr(objective_module, "narrowed_collisions", checked_narrowing)
+    monkeypatch.setattr(CollisionMesh, "from_model", staticmethod(keep_mesh))
+    ipcsim.run(load_scene(tmp_path / "scene.txt"), tmp_path / "out", steps=4)
+    at_ends = [n for x, n in narrowed if any(x is y for y in ends)]
+    assert len(ends) >= 4 and len(at_ends) == len(ends)  # every end was narrowed
+    assert sum(at_ends) > 0  # and pairs were within d̂ there
