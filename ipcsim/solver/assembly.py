@@ -99,6 +99,7 @@ class Assembler:
         coupling = np.zeros(n_free)
         for part, slots in zip(static_parts, pat.slots):
             part.scatter_into(data, slots, free_index, p, coupling)
+        dynamic_parts = [d for d in dynamic_parts if d.size]  # no contact: no merge
         if dynamic_parts:
             rows = np.concatenate([d.rows for d in dynamic_parts])
             cols = np.concatenate([d.cols for d in dynamic_parts])
