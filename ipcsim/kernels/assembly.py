@@ -2,9 +2,11 @@
 
 The Newton matrix is a fixed-pattern part (inertia, elasticity, damping; see
 ``solver/assembly.py``) plus the triplets of contact and friction, whose pattern changes
-with the contact set. ``add_triplets`` maps the triplets to free-DOF numbers, drops
-those of kinematic rows, sums duplicates and merges them into the fixed part column by
-column; triplets of a free row and a kinematic column go into the coupling H_fk p_k.
+with the contact set. Those are counted per free column (``count_kept_columns``), put
+in column buckets as (free row, value) (``bucket_kept``, term after term), and each
+column is sorted, summed and merged into the fixed part (``merge_columns``): 12 bytes a
+triplet besides the triplets themselves. Triplets of kinematic rows are dropped; those
+of a free row and a kinematic column go into the coupling H_fk p_k.
 """
 
 from __future__ import annotations
@@ -14,26 +16,94 @@ from ipcsim.kernels.jit import njit
 
 
 @njit(cache=True)
-def add_triplets(indptr, indices, data, rows, cols, vals, free_index, p, coupling):
-    """(indptr, indices, data) of A + T over free DOFs, with A the CSC matrix
-    (indptr, indices, data) with sorted indices and T the triplets (rows, cols, vals) in
-    DOF numbers; zero triplets add no entry. ``coupling`` (free DOFs) gets T_fk p_k
-    added in place."""
+def count_kept_columns(rows, cols, vals, scale, free_index, p, coupling, counts):
+    """counts[c + 1] += the triplets (rows, cols, scale·vals) in DOF numbers that
+    ``merge_columns`` keeps in free column c: a free row and a nonzero value; those of a
+    free row and a kinematic column add scale·v·p[col] to coupling[row] instead."""
+    for t in range(rows.shape[0]):
+        v = scale * vals[t]
+        r = free_index[rows[t]]
+        if r < 0 or v == 0.0:
+            continue
+        c = free_index[cols[t]]
+        if c < 0:
+            coupling[r] += v * p[cols[t]]
+        else:
+            counts[c + 1] += 1
+
+
+@njit(cache=True)
+def bucket_kept(rows, cols, vals, scale, free_index, fill, bucket_rows, bucket_vals):
+    """The kept triplets of ``count_kept_columns`` into column buckets, in triplet order:
+    (free row, value) at fill[c], fill[c] advancing."""
+    for t in range(rows.shape[0]):
+        v = scale * vals[t]
+        r = free_index[rows[t]]
+        if r < 0 or v == 0.0:
+            continue
+        c = free_index[cols[t]]
+        if c >= 0:
+            bucket_rows[fill[c]] = r
+            bucket_vals[fill[c]] = v
+            fill[c] += 1
+
+
+_INSERTION_BELOW = 32  # a column's triplets sorted by insertion up to this many
+
+
+@njit(cache=True)
+def _sum_column(rows, vals, lo, hi):
+    """Sort rows[lo:hi] stably (vals along) and sum equal rows in order, compacting to
+    the front: returns the number of distinct rows."""
+    if hi - lo <= _INSERTION_BELOW:
+        for i in range(lo + 1, hi):
+            r = rows[i]
+            v = vals[i]
+            k = i - 1
+            while k >= lo and rows[k] > r:  # strict: equal rows keep their order
+                rows[k + 1] = rows[k]
+                vals[k + 1] = vals[k]
+                k -= 1
+            rows[k + 1] = r
+            vals[k + 1] = v
+    else:
+        order = np.argsort(rows[lo:hi], kind="mergesort")
+        rows[lo:hi] = rows[lo:hi][order]
+        vals[lo:hi] = vals[lo:hi][order]
+    u = lo
+    for t in range(lo + 1, hi):
+        if rows[t] == rows[u]:
+            vals[u] += vals[t]
+        else:
+            u += 1
+            rows[u] = rows[t]
+            vals[u] = vals[t]
+    return u + 1 - lo if hi > lo else 0
+
+
+@njit(cache=True)
+def merge_columns(indptr, indices, data, start, bucket_rows, bucket_vals):
+    """(indptr, indices, data) of A + T over free DOFs: A the CSC matrix (indptr,
+    indices, data) with sorted indices, T the triplets bucketed by column (column c's
+    rows and values at [start[c], start[c + 1]) of the buckets, in triplet order).
+    Each column's triplets are sorted by row and duplicates summed in order (the order
+    of one stable sort of every (column, row) key), then added to A's entries."""
     n = indptr.shape[0] - 1
-    keys, kept = _free_keys(rows, cols, vals, free_index, p, coupling, n)
-    keys, kept = _stable_sort_by_key(keys, kept, n)  # duplicates are summed in order
-    t_col, t_row, t_val = _summed(keys, kept, n)
+    distinct = np.empty(n, dtype=np.int64)
+    for c in range(n):
+        distinct[c] = _sum_column(bucket_rows, bucket_vals, start[c], start[c + 1])
+    size = distinct.sum()
     out_ptr = np.zeros(n + 1, dtype=np.int32)  # int32 as scipy keeps it (sizes < 2³¹)
-    out_idx = np.empty(indices.shape[0] + t_col.shape[0], dtype=np.int32)
-    out_val = np.empty(indices.shape[0] + t_col.shape[0], dtype=np.float64)
+    out_idx = np.empty(indices.shape[0] + size, dtype=np.int32)
+    out_val = np.empty(indices.shape[0] + size, dtype=np.float64)
     o = 0
-    j = 0  # next summed triplet, by column then row
-    m = t_col.shape[0]
     for col in range(n):
         a, end = indptr[col], indptr[col + 1]
-        while a < end or (j < m and t_col[j] == col):
-            if j < m and t_col[j] == col and (a == end or t_row[j] <= indices[a]):
-                row, value = t_row[j], t_val[j]
+        j = start[col]
+        j_end = j + distinct[col]
+        while a < end or j < j_end:
+            if j < j_end and (a == end or bucket_rows[j] <= indices[a]):
+                row, value = bucket_rows[j], bucket_vals[j]
                 if a < end and indices[a] == row:  # an entry of A gets the triplets' sum
                     value += data[a]
                     a += 1
@@ -46,75 +116,6 @@ def add_triplets(indptr, indices, data, rows, cols, vals, free_index, p, couplin
             o += 1
         out_ptr[col + 1] = o
     return out_ptr, out_idx[:o], out_val[:o]
-
-
-@njit(cache=True)
-def _free_keys(rows, cols, vals, free_index, p, coupling, n):
-    """Column-major keys col·n + row and values of the free-free triplets; free-kinematic
-    ones go into the coupling."""
-    m = rows.shape[0]
-    keys = np.empty(m, dtype=np.int64)
-    kept = np.empty(m, dtype=np.float64)
-    k = 0
-    for t in range(m):
-        r = free_index[rows[t]]
-        if r < 0 or vals[t] == 0.0:
-            continue
-        c = free_index[cols[t]]
-        if c < 0:
-            coupling[r] += vals[t] * p[cols[t]]
-            continue
-        keys[k] = np.int64(c) * n + r
-        kept[k] = vals[t]
-        k += 1
-    return keys[:k], kept[:k]
-
-
-@njit(cache=True)
-def _stable_sort_by_key(keys, vals, n):
-    """keys (col·n + row) and vals in the order of a stable sort by key: a counting sort
-    by column, then a stable sort of each column's rows. The same order as one stable
-    sort of all keys, without sorting millions of keys at once (contact triplets)."""
-    m = keys.shape[0]
-    start = np.zeros(n + 1, dtype=np.int64)
-    for t in range(m):
-        start[keys[t] // n + 1] += 1
-    for c in range(n):
-        start[c + 1] += start[c]
-    fill = start[:-1].copy()
-    sorted_keys = np.empty(m, dtype=np.int64)
-    sorted_vals = np.empty(m, dtype=np.float64)
-    for t in range(m):
-        c = keys[t] // n
-        sorted_keys[fill[c]] = keys[t]
-        sorted_vals[fill[c]] = vals[t]
-        fill[c] += 1
-    for c in range(n):
-        lo, hi = start[c], start[c + 1]
-        if hi - lo > 1:
-            order = np.argsort(sorted_keys[lo:hi], kind="mergesort")
-            sorted_keys[lo:hi] = sorted_keys[lo:hi][order]
-            sorted_vals[lo:hi] = sorted_vals[lo:hi][order]
-    return sorted_keys, sorted_vals
-
-
-@njit(cache=True)
-def _summed(keys, vals, n):
-    """(columns, rows, sums) of the distinct sorted keys, duplicates summed in order."""
-    m = keys.shape[0]
-    col = np.empty(m, dtype=np.int64)
-    row = np.empty(m, dtype=np.int64)
-    val = np.empty(m, dtype=np.float64)
-    u = -1
-    for t in range(m):
-        if u < 0 or keys[t] != keys[t - 1]:
-            u += 1
-            col[u] = keys[t] // n
-            row[u] = keys[t] - col[u] * n
-            val[u] = vals[t]
-        else:
-            val[u] += vals[t]
-    return col[:u + 1], row[:u + 1], val[:u + 1]
 
 
 # --- the fixed pattern of inertia, elasticity and damping -------------------------------

@@ -5,8 +5,9 @@ edits a CSR matrix in place. Terms whose sparsity pattern never changes (inertia
 elasticity, damping: ``constant_pattern = True``) return the same index arrays on every
 call, so the map from each of their triplets to a slot of the CSC matrix is computed once
 per kinematic mask, and each iteration only scatter-adds values, times the term's weight
-(a linear pass instead of a sort of millions of triplets). Triplets of terms whose pattern changes (contact,
-friction) are merged into that matrix by one kernel (``kernels/assembly.py``).
+(a linear pass instead of a sort of millions of triplets). Triplets of terms whose pattern
+changes (contact, friction) are bucketed by column and merged into that matrix
+(``kernels/assembly.py``).
 
 ``assemble`` also returns the coupling H_fk p_k, the free rows' product with the
 prescribed motion of kinematic DOFs, which the Newton step subtracts from its right side.
@@ -101,11 +102,25 @@ class Assembler:
             part.scatter_into(data, slots, free_index, p, coupling)
         dynamic_parts = [d for d in dynamic_parts if d.size]  # no contact: no merge
         if dynamic_parts:
-            rows = np.concatenate([d.rows for d in dynamic_parts])
-            cols = np.concatenate([d.cols for d in dynamic_parts])
-            vals = np.concatenate([d.values for d in dynamic_parts])
-            indptr, indices, data = ka.add_triplets(pat.indptr, pat.indices, data, rows, cols,
-                                                    vals, free_index, p, coupling)
+            indptr, indices, data = _merge(pat, data, dynamic_parts, free_index, p, coupling)
         else:
             indptr, indices = pat.indptr, pat.indices
         return CscMatrix(data, indices, indptr, (n_free, n_free)), coupling
+
+
+def _merge(pat, data, parts, free_index, p, coupling):
+    """The static matrix (pat's pattern, data) plus the triplets of ``parts``: counted
+    and bucketed by free column term after term (no concatenated copy), then merged."""
+    n = len(pat.indptr) - 1
+    start = np.zeros(n + 1, dtype=np.int64)
+    for d in parts:
+        ka.count_kept_columns(d.rows, d.cols, d.vals, float(d.scale), free_index, p,
+                              coupling, start)
+    np.cumsum(start, out=start)
+    bucket_rows = np.empty(int(start[-1]), dtype=np.int32)
+    bucket_vals = np.empty(int(start[-1]))
+    fill = start[:-1].copy()
+    for d in parts:
+        ka.bucket_kept(d.rows, d.cols, d.vals, float(d.scale), free_index, fill, bucket_rows,
+                       bucket_vals)
+    return ka.merge_columns(pat.indptr, pat.indices, data, start, bucket_rows, bucket_vals)

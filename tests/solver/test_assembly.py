@@ -54,14 +54,43 @@ def test_assembly_matches_reference_and_reuses_the_pattern():
 
 
 def test_contact_triplets_merge_in_the_order_of_one_stable_sort():
-    """add_triplets sorts its triplets column by column; the merged matrix is bit for bit
-    the one a single stable sort of all (col, row) keys gives, duplicates summed in order."""
-    from ipcsim.kernels.assembly import _stable_sort_by_key
+    """The contact triplets are bucketed by column and each column sorted and summed; the
+    merged matrix is bit for bit the one a single stable sort of all (col, row) keys
+    gives, duplicates summed in order and then added to the fixed part's entry."""
+    from ipcsim.kernels import assembly as ka
 
     n = 50
-    keys = RNG.integers(0, n * n, 20000)
-    vals = RNG.normal(size=keys.size)
-    sorted_keys, sorted_vals = _stable_sort_by_key(keys, vals, n)
+    fixed = sp.random(n, n, density=0.1, random_state=3, format="csc")
+    fixed.sort_indices()
+    rows = RNG.integers(0, n, 20000)
+    cols = np.concatenate([RNG.integers(0, n, 19000), np.full(1000, 7)])  # a long column
+    vals = RNG.normal(size=rows.size)
+    vals[::17] = 0.0  # zero triplets add no entry
+    free_index = np.arange(n)
+    start = np.zeros(n + 1, dtype=np.int64)
+    coupling = np.zeros(n)
+    ka.count_kept_columns(rows, cols, vals, 0.5, free_index, np.zeros(n), coupling, start)
+    np.cumsum(start, out=start)
+    bucket_rows = np.empty(int(start[-1]), dtype=np.int32)
+    bucket_vals = np.empty(int(start[-1]))
+    ka.bucket_kept(rows, cols, vals, 0.5, free_index, start[:-1].copy(), bucket_rows,
+                   bucket_vals)
+    indptr, indices, data = ka.merge_columns(fixed.indptr.astype(np.int32),
+                                             fixed.indices.astype(np.int32), fixed.data,
+                                             start, bucket_rows, bucket_vals)
+    # the reference: one stable sort of the keys, sums in order, then the fixed entry
+    keep = vals != 0.0
+    keys = (cols * n + rows)[keep]
+    scaled = (0.5 * vals)[keep]
     order = np.argsort(keys, kind="stable")
-    np.testing.assert_array_equal(sorted_keys, keys[order])
-    np.testing.assert_array_equal(sorted_vals, vals[order])
+    sums = {}
+    for key, v in zip(keys[order].tolist(), scaled[order].tolist()):
+        sums[key] = sums[key] + v if key in sums else v
+    coo = fixed.tocoo()
+    for r, c, v in zip(coo.row.tolist(), coo.col.tolist(), coo.data.tolist()):
+        key = c * n + r
+        sums[key] = sums[key] + v if key in sums else v
+    want = sorted(sums)
+    got_cols = np.repeat(np.arange(n), np.diff(indptr))
+    assert (got_cols * n + indices).tolist() == want
+    assert data.tolist() == [sums[k] for k in want]  # bit for bit
