@@ -366,13 +366,14 @@ def _hessian_into(u, verts, coeffs, P, w, eps, project, rows, cols, vals, base):
 
 @kernel(parallel=True, error_model="numpy")
 def friction_hessian_triplets(u, verts, coeffs, basis, weight, eps, project, offsets):
-    """∇²D as COO triplets (rows, cols, vals); pair k writes the slots
-    [offsets[k], offsets[k+1]) only (parallel, disjoint). With `project` every local
-    block is PSD (clamped 2 x 2 inner block, w ≥ 0)."""
+    """∇²D as COO triplets (rows, cols, vals), int32/int32/float64 as the contact
+    barrier's; pair k writes the slots [offsets[k], offsets[k+1]) only (parallel,
+    disjoint). With `project` every local block is PSD (clamped 2 x 2 inner block,
+    w ≥ 0)."""
     m = verts.shape[0]
     total = offsets[m]
-    rows = np.empty(total, dtype=np.int64)
-    cols = np.empty(total, dtype=np.int64)
+    rows = np.empty(total, dtype=np.int32)
+    cols = np.empty(total, dtype=np.int32)
     vals = np.empty(total)
     for k in prange(m):
         _hessian_into(u, verts[k], coeffs[k], basis[k], weight[k], eps, project,

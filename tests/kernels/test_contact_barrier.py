@@ -266,7 +266,7 @@ def test_hessian_triplet_layout_and_inactive_pairs():
     pt_act, ee_act = np.flatnonzero(pt_d2 < s_hat), np.flatnonzero(ee_d2 < s_hat)
     assert len(pt_act) < len(pt) and len(ee_act) < len(ee)  # inactive pairs exist
     rows, cols, vals = CB.barrier_hessian_triplets(X, pt, ee, eps_x, s_hat, kappa, True)
-    assert rows.dtype == np.int64 and cols.dtype == np.int64
+    assert rows.dtype == np.int32 and cols.dtype == np.int32  # 16 bytes a triplet
     assert len(vals) == 144 * (len(pt_act) + len(ee_act))
     pairs = np.concatenate([pt[pt_act], ee[ee_act]])
     for a in (0, len(pt_act) - 1, len(pt_act), len(pairs) - 1):
