@@ -53,6 +53,11 @@ class Evaluation:
     gradient: np.ndarray | None = None
     hessian: tuple[list[Triplets], list[Triplets]] | None = None
 
+    def without_hessian(self) -> "Evaluation":
+        """The same evaluation without its Hessian triplets (which, in heavy contact, are
+        more memory than anything else Newton holds), once they are assembled."""
+        return dataclasses.replace(self, hessian=None)
+
 
 @dataclass(frozen=True, eq=False)
 class LineSearch:
@@ -154,9 +159,10 @@ class StepObjective:
         if order == 2 and adapt:
             self._adapt_stiffness(values, contacts)
         kappa = self.stiffness.kappa
+        hessian = values.hessian(kappa) if order >= 2 else None
+        values = dataclasses.replace(values, hessians=None)  # held by ``hessian`` alone
         return Evaluation(x, values, kappa, contacts, values.energy(kappa),
-                          values.gradient(kappa) if order >= 1 else None,
-                          values.hessian(kappa) if order >= 2 else None)
+                          values.gradient(kappa) if order >= 1 else None, hessian)
 
     def _adapt_stiffness(self, values: TermValues, contacts: ContactCount) -> None:
         if not self.contact.adaptive_kappa:

@@ -35,6 +35,20 @@ from .assembly import Assembler
 from .timing import PhaseTimer
 
 
+@dataclass(frozen=True, eq=False)
+class _System:
+    """The Newton system H_ff p_f = rhs over the free DOFs (A, rhs, the coupling H_fk p_k)
+    and the direction p (3n,) with its prescribed part filled in."""
+
+    A: object
+    rhs: np.ndarray
+    coupling: np.ndarray
+    p: np.ndarray
+    remaining: float  # the prescribed motion still to go, ‖p_k‖∞
+    free_dofs: np.ndarray
+    n_free: int
+
+
 @dataclass(frozen=True)
 class NewtonResult:
     """What one minimisation did. ``rows`` holds a newton.csv row per iteration;
@@ -111,7 +125,10 @@ class NewtonSolver:
                 potential = (ev.kappa, objective.revision)
             if not np.isfinite(ev.gradient).all():
                 raise NonFiniteError("gradient", objective.nonfinite_terms(x), it)
-            p, remaining = self._direction(objective, x, ev, run, it)
+            system = self._system(objective, x, ev, run)
+            ev = ev.without_hessian()  # its triplets go before the factorisation
+            p, remaining = self._direction(objective, x, system, run, it)
+            del system
             step_norm = np.abs(p[~kin_dofs]).max(initial=0.0)
             row = {"iteration": it, "step_inf_norm": step_norm, "tolerance": tol,
                    "gradient_norm": float(np.linalg.norm(ev.gradient[~kin_dofs])),
@@ -149,8 +166,9 @@ class NewtonSolver:
         run.iterations = self.settings.max_newton_iterations
         return self._finish(objective, x, run, converged=False, hit_cap=True)
 
-    def _direction(self, objective, x, ev, run: _Progress, it: int):
-        """The Newton direction p (3n,) at x and the prescribed motion still remaining."""
+    def _system(self, objective, x, ev, run: _Progress) -> "_System":
+        """The Newton system over the free DOFs at x (assembled from ev's Hessian) and the
+        prescribed part of the direction: p_k = target − x_k, the motion still remaining."""
         kinematic = objective.kinematic
         kin_dofs = np.repeat(kinematic, 3)
         free_dofs = ~kin_dofs
@@ -168,9 +186,16 @@ class NewtonSolver:
         with self.timer("assembly"):
             A, coupling = self.assembler.assemble(static, dynamic, free_index, n_free, p)
             rhs = -ev.gradient[free_dofs] - coupling
+        return _System(A, rhs, coupling, p, remaining, free_dofs, n_free)
+
+    def _direction(self, objective, x, system: "_System", run: _Progress, it: int):
+        """The Newton direction p (3n,) at x, solving the system, and the prescribed
+        motion still remaining."""
+        p, free_dofs = system.p, system.free_dofs
         with self.timer("solve"):
             try:
-                p[free_dofs] = self.linear_solver.solve(A, rhs) if n_free else 0.0
+                p[free_dofs] = (self.linear_solver.solve(system.A, system.rhs) if system.n_free
+                                else 0.0)
             except SolverError:
                 bad = objective.nonfinite_terms(x)
                 if bad:  # a NaN in the matrix is the cause: name its term
@@ -178,14 +203,14 @@ class NewtonSolver:
                 raise
         if not np.isfinite(p).all():
             raise NonFiniteError("Newton direction", objective.nonfinite_terms(x), it)
-        if remaining > 0.0 and n_free and np.abs(p[free_dofs]).max() < run.tol:
+        if system.remaining > 0.0 and system.n_free and np.abs(p[free_dofs]).max() < run.tol:
             # the free DOFs are converged, the prescribed motion is not: follow it with
             # the free DOFs' linear response alone, H_ff p_f = −H_fk p_k. The free part's
             # own residual (below tol) would otherwise move them far more than the small
             # rest of the motion does, and CCD would cut every step to a part of it.
             with self.timer("solve"):
-                p[free_dofs] = self.linear_solver.solve_again(-coupling)
-        return p, remaining
+                p[free_dofs] = self.linear_solver.solve_again(-system.coupling)
+        return p, system.remaining
 
     def _line_search(self, objective, x, p, remaining, energy, run: _Progress, it: int):
         """(x_new, α, E(x_new), failed): the feasible step along p, halved until E

@@ -64,3 +64,34 @@ def test_intersecting_start_is_refused_naming_the_shapes(tmp_path, cube_mesh, ca
     err = capsys.readouterr().err
     assert "shape 1 (cube) and shape 2 (cube)" in err and fragment in err
     assert "Traceback" not in err
+
+
+def test_the_contact_hessian_is_gone_before_the_factorisation(tmp_path, cube_mesh):
+    """Newton keeps no Hessian triplets past the assembly: in heavy contact they are
+    more memory than anything else it holds, and the factorisation needs the most."""
+    import weakref
+
+    scene = _scene(tmp_path, cube_mesh, f"{cube_mesh} 0.01 0.205 0.005  0 20 0  1 1 1\n"
+                                        f"{cube_mesh} 0 0.001 0  0 0 0  1 1 1",
+                   "stiffness 1e7 0.4\n")
+    sim = Simulation(build_model(load_scene(scene)))
+    held = []  # weak references to the last evaluation's contact triplets
+
+    def seen(xi, evaluation):
+        held.clear()
+        if evaluation.hessian is not None:
+            held.extend(weakref.ref(t.vals) for t in evaluation.hessian[1] if t.size)
+
+    watch_iterates(sim, seen)
+    solve = sim.newton.linear_solver.solve
+    checked = []
+
+    def solve_checked(A, rhs):
+        checked.append(len(held))
+        assert all(ref() is None for ref in held)  # every triplet array was freed
+        return solve(A, rhs)
+
+    sim.newton.linear_solver.solve = solve_checked
+    for _ in range(5):
+        sim.step()
+    assert sum(checked) > 0  # solves with contact triplets made before them
