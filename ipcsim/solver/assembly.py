@@ -90,8 +90,10 @@ class Assembler:
     def __init__(self):
         self._pattern: _StaticPattern | None = None
 
-    def assemble(self, static_parts, dynamic_parts, free_index, n_free, p):
-        """(A over free DOFs as CSC, coupling H_fk p_k over free DOFs)."""
+    def assemble(self, static_parts, dynamic_parts: list, free_index, n_free, p):
+        """(A over free DOFs as CSC, coupling H_fk p_k over free DOFs). The list
+        ``dynamic_parts`` is emptied: each term's triplets are let go once bucketed, before
+        the merged matrix is built (in heavy contact they are the largest arrays here)."""
         if self._pattern is None or not self._pattern.matches(static_parts, free_index):
             self._pattern = None  # let the old pattern go before the new one is built
             self._pattern = _StaticPattern(static_parts, free_index, n_free)
@@ -100,27 +102,34 @@ class Assembler:
         coupling = np.zeros(n_free)
         for part, slots in zip(static_parts, pat.slots):
             part.scatter_into(data, slots, free_index, p, coupling)
-        dynamic_parts = [d for d in dynamic_parts if d.size]  # no contact: no merge
-        if dynamic_parts:
-            indptr, indices, data = _merge(pat, data, dynamic_parts, free_index, p, coupling)
+        parts = [d for d in dynamic_parts if d.size]  # no contact: no merge
+        dynamic_parts.clear()
+        if parts:
+            indptr, indices, data = _merge(pat, data, parts, free_index, p, coupling)
         else:
             indptr, indices = pat.indptr, pat.indices
         return CscMatrix(data, indices, indptr, (n_free, n_free)), coupling
 
 
-def _merge(pat, data, parts, free_index, p, coupling):
+def _merge(pat, data, parts: list, free_index, p, coupling):
     """The static matrix (pat's pattern, data) plus the triplets of ``parts``: counted
-    and bucketed by free column term after term (no concatenated copy), then merged."""
+    and bucketed by free column term after term (no concatenated copy; ``parts`` is
+    emptied as they are bucketed), then merged."""
     n = len(pat.indptr) - 1
     start = np.zeros(n + 1, dtype=np.int64)
     for d in parts:
         ka.count_kept_columns(d.rows, d.cols, d.vals, float(d.scale), free_index, p,
                               coupling, start)
+    del d  # the loop variable would keep the last term's triplets alive
     np.cumsum(start, out=start)
     bucket_rows = np.empty(int(start[-1]), dtype=np.int32)
     bucket_vals = np.empty(int(start[-1]))
     fill = start[:-1].copy()
-    for d in parts:
-        ka.bucket_kept(d.rows, d.cols, d.vals, float(d.scale), free_index, fill, bucket_rows,
-                       bucket_vals)
+    while parts:
+        _bucket(parts.pop(0), free_index, fill, bucket_rows, bucket_vals)
     return ka.merge_columns(pat.indptr, pat.indices, data, start, bucket_rows, bucket_vals)
+
+
+def _bucket(part, free_index, fill, bucket_rows, bucket_vals) -> None:
+    ka.bucket_kept(part.rows, part.cols, part.vals, float(part.scale), free_index, fill,
+                   bucket_rows, bucket_vals)

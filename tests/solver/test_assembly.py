@@ -43,8 +43,10 @@ def test_assembly_matches_reference_and_reuses_the_pattern():
             dynamic = ([_random_triplets(n_dofs, 30), Triplets.empty()] if step
                        else [Triplets.empty()])
             p = RNG.normal(size=n_dofs)
-            A, coupling = assembler.assemble(static, dynamic, free_index, int((~kinematic).sum()), p)
             ref_A, ref_c = _reference(static + dynamic, kinematic, p)
+            given = list(dynamic)
+            A, coupling = assembler.assemble(static, given, free_index, int((~kinematic).sum()), p)
+            assert given == []  # the contact triplets were taken over and let go
             assert isinstance(A, CscMatrix)
             _assert_canonical(A)
             np.testing.assert_allclose(A.toarray(), ref_A, rtol=1e-12, atol=1e-12)
