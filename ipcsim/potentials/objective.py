@@ -262,6 +262,7 @@ class StepObjective:
         on = self._on_segment
         if on is not None and on[0] is x and on[1] is not None:
             collisions = narrowed_collisions(on[1], x, self.contact.dhat)
+            self._on_segment = None  # its one use: the swept pairs go before the next sweep
         else:
             collisions = build_collisions(self.contact.mesh, x, self.contact.dhat)
         self._collisions_at = (x.copy(), collisions)
