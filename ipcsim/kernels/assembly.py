@@ -48,6 +48,66 @@ def bucket_kept(rows, cols, vals, scale, free_index, fill, bucket_rows, bucket_v
             fill[c] += 1
 
 
+@njit(cache=True)
+def block_triplet_indices(stencils):
+    """(rows, cols), int32, of the 144 entries of each stencil's 12 x 12 block, in the
+    blocks' order, row-major: entry 144 k + 12 r + c couples DOF 3 s[r//3] + r%3 with DOF
+    3 s[c//3] + c%3, s = stencils[k] (4 global vertex ids)."""
+    k = stencils.shape[0]
+    rows = np.empty(144 * k, dtype=np.int32)
+    cols = np.empty(144 * k, dtype=np.int32)
+    for a in range(k):
+        for r in range(12):
+            gr = 3 * stencils[a, r // 3] + r % 3
+            for c in range(12):
+                o = 144 * a + 12 * r + c
+                rows[o] = gr
+                cols[o] = 3 * stencils[a, c // 3] + c % 3
+    return rows, cols
+
+
+@njit(cache=True)
+def count_kept_blocks(stencils, vals, scale, free_index, p, coupling, counts):
+    """``count_kept_columns`` for 12 x 12 blocks over 4-vertex stencils: entry
+    144 k + 12 r + c of vals couples DOF 3 s[r//3] + r%3 with DOF 3 s[c//3] + c%3,
+    s = stencils[k] (``block_triplet_indices``), in that order."""
+    t = 0
+    for k in range(stencils.shape[0]):
+        for i in range(12):
+            dof_i = 3 * stencils[k, i // 3] + i % 3
+            r = free_index[dof_i]
+            for j in range(12):
+                v = scale * vals[t]
+                t += 1
+                if r < 0 or v == 0.0:
+                    continue
+                dof_j = 3 * stencils[k, j // 3] + j % 3
+                c = free_index[dof_j]
+                if c < 0:
+                    coupling[r] += v * p[dof_j]
+                else:
+                    counts[c + 1] += 1
+
+
+@njit(cache=True)
+def bucket_kept_blocks(stencils, vals, scale, free_index, fill, bucket_rows, bucket_vals):
+    """``bucket_kept`` for the blocks of ``count_kept_blocks``."""
+    t = 0
+    for k in range(stencils.shape[0]):
+        for i in range(12):
+            r = free_index[3 * stencils[k, i // 3] + i % 3]
+            for j in range(12):
+                v = scale * vals[t]
+                t += 1
+                if r < 0 or v == 0.0:
+                    continue
+                c = free_index[3 * stencils[k, j // 3] + j % 3]
+                if c >= 0:
+                    bucket_rows[fill[c]] = r
+                    bucket_vals[fill[c]] = v
+                    fill[c] += 1
+
+
 _INSERTION_BELOW = 32  # a column's triplets sorted by insertion up to this many
 
 

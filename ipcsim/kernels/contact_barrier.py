@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 from ipcsim.kernels.jit import njit, prange
 
+from ipcsim.kernels.assembly import block_triplet_indices
 from ipcsim.kernels.barrier import barrier, barrier_and_derivatives
 from ipcsim.kernels.distance import (
     EE_FEATURES,
@@ -235,17 +236,17 @@ def project_psd_on_feature(H, feature):
 
 
 @njit(cache=True, error_model="numpy")
-def _pt_hessian_into(x, pair, s_hat, kappa, project, rows, cols, vals, base):
+def _pt_hessian_into(x, pair, s_hat, kappa, project, vals, base):
     V = gather_stencil(x, pair)
     t = point_triangle_distance_type(V[0], V[1], V[2], V[3])
     H = point_triangle_barrier_hessian(V, t, s_hat, kappa)
     if project:
         H = project_psd_on_feature(H, PT_FEATURES[t])
-    write_hessian_block(rows, cols, vals, base, pair, H)
+    _write_block(vals, base, H)
 
 
 @njit(cache=True, error_model="numpy")
-def _ee_hessian_into(x, pair, eps_x, s_hat, kappa, project, rows, cols, vals, base):
+def _ee_hessian_into(x, pair, eps_x, s_hat, kappa, project, vals, base):
     V = gather_stencil(x, pair)
     t = edge_edge_distance_type(V[0], V[1], V[2], V[3])
     H = edge_edge_barrier_hessian(V, t, eps_x, s_hat, kappa)
@@ -254,7 +255,15 @@ def _ee_hessian_into(x, pair, eps_x, s_hat, kappa, project, rows, cols, vals, ba
             H = project_psd(H)  # the mollifier couples all four vertices
         else:
             H = project_psd_on_feature(H, EE_FEATURES[t])
-    write_hessian_block(rows, cols, vals, base, pair, H)
+    _write_block(vals, base, H)
+
+
+@njit(cache=True)
+def _write_block(vals, base, H):
+    # the 12 x 12 local Hessian H at slots [base, base + 144), row-major
+    for r in range(12):
+        for c in range(12):
+            vals[base + 12 * r + c] = H[r, c]
 
 
 @njit(cache=True, error_model="numpy")
@@ -269,6 +278,8 @@ def write_hessian_block(rows, cols, vals, base, pair, H):
             rows[o] = gr
             cols[o] = 3 * pair[c // 3] + c % 3
             vals[o] = H[r, c]
+
+
 
 
 # =========================================================================================
@@ -332,33 +343,44 @@ def barrier_gradient(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa):
 
 
 @kernel(parallel=True, error_model="numpy")
-def barrier_hessian_triplets(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa, project):
-    """∇²B as COO triplets (rows, cols, vals), int32/int32/float64 (DOF numbers fit in
-    int32: 16 bytes a triplet instead of 24, at tens of millions of triplets in heavy
-    contact).
-
-    Compacted: only ACTIVE pairs (d² < ŝ) appear, 144 entries each, active point-triangle
-    pairs first (in input order), then active edge-edge pairs; active pair number a owns
-    the slots [144 a, 144 (a + 1)), row-major over its 12 x 12 local Hessian, so the
-    parallel writes never overlap. With ``project`` each local Hessian is clamped to PSD
-    (negative eigenvalues -> 0) before it is written; only the block of the vertices
-    the pair's closest feature involves is decomposed (all four when mollified). Rows and columns of stencil vertices
-    that the closest feature does not involve hold zeros. Duplicate (row, col) entries are
-    to be summed (Triplets.tocsr)."""
+def barrier_hessian_blocks(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa, project):
+    """∇²B as one 12 x 12 block per ACTIVE pair (d² < ŝ): (stencils (k, 4) int64, vals
+    (144 k,) float64), active point-triangle pairs first (in input order), then active
+    edge-edge pairs; block a holds slots [144 a, 144 (a + 1)) of vals, row-major over
+    its stencil's 12 DOFs (``assembly.block_triplet_indices`` gives each entry's row and
+    column),
+    so the parallel writes never overlap. With ``project`` each block is clamped to PSD
+    (negative eigenvalues -> 0); only the part of the vertices the pair's closest
+    feature involves is decomposed (all four when mollified). Rows and columns of
+    stencil vertices that the closest feature does not involve hold zeros. Blocks of
+    pairs that share vertices are to be summed."""
     _, pt_d2, _, ee_d2 = classify_and_distance(x, pt_pairs, ee_pairs)
     pt_act = np.flatnonzero(pt_d2 < s_hat)
     ee_act = np.flatnonzero(ee_d2 < s_hat)
     na = pt_act.shape[0]
     nb = ee_act.shape[0]
-    total = HESSIAN_BLOCK * (na + nb)
-    rows = np.empty(total, dtype=np.int32)
-    cols = np.empty(total, dtype=np.int32)
-    vals = np.empty(total)
+    stencils = np.empty((na + nb, 4), dtype=np.int64)
+    vals = np.empty(HESSIAN_BLOCK * (na + nb))
     for a in prange(na):
-        _pt_hessian_into(x, pt_pairs[pt_act[a]], s_hat, kappa, project,
-                         rows, cols, vals, HESSIAN_BLOCK * a)
+        i = pt_act[a]
+        for j in range(4):
+            stencils[a, j] = pt_pairs[i, j]
+        _pt_hessian_into(x, pt_pairs[i], s_hat, kappa, project, vals, HESSIAN_BLOCK * a)
     for a in prange(nb):
         i = ee_act[a]
+        for j in range(4):
+            stencils[na + a, j] = ee_pairs[i, j]
         _ee_hessian_into(x, ee_pairs[i], ee_eps_x[i], s_hat, kappa, project,
-                         rows, cols, vals, HESSIAN_BLOCK * (na + a))
+                         vals, HESSIAN_BLOCK * (na + a))
+    return stencils, vals
+
+
+@kernel(error_model="numpy")
+def barrier_hessian_triplets(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa, project):
+    """∇²B as COO triplets (rows, cols, vals), int32/int32/float64: the entries of
+    ``barrier_hessian_blocks`` with their rows and columns, in the same order (144 per
+    active pair). Duplicate (row, col) entries are to be summed (Triplets.tocsr)."""
+    stencils, vals = barrier_hessian_blocks(x, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa,
+                                            project)
+    rows, cols = block_triplet_indices(stencils)
     return rows, cols, vals

@@ -5,6 +5,7 @@ A term is a frozen value with
     value(x, ctx) -> float
     gradient(x, ctx) -> (3n,)
     hessian(x, ctx) -> Triplets       every local block already projected to PSD
+                                      (BlockHessian for the contact pairs' 12 × 12 blocks)
 
 and, where it bounds the line search, ``max_step(x, p, ctx) -> α ∈ [0, 1]``. ``x`` is the
 (n, 3) array of all vertex positions (DOF 3i+a is vertex i, axis a) and ``ctx`` the frozen
@@ -24,6 +25,7 @@ from typing import TYPE_CHECKING, Callable, ClassVar, Protocol
 import numpy as np
 
 from ..kernels import assembly as ka
+from ..kernels.assembly import block_triplet_indices
 
 if TYPE_CHECKING:
     import scipy.sparse as sp
@@ -91,6 +93,60 @@ class Triplets:
         or column is kinematic); free rows' entries in kinematic columns go to coupling."""
         ka.scatter_into_pattern(data, slots, self.vals, self.scale, self.rows, self.cols,
                                 free_index, p, coupling)
+
+    def count_into(self, free_index, p, coupling, counts) -> None:
+        """Count the entries a merge keeps per free column (``kernels/assembly.py``)."""
+        ka.count_kept_columns(self.rows, self.cols, self.vals, float(self.scale), free_index,
+                              p, coupling, counts)
+
+    def bucket_into(self, free_index, fill, bucket_rows, bucket_vals) -> None:
+        """Put the kept entries in their columns' buckets, in order."""
+        ka.bucket_kept(self.rows, self.cols, self.vals, float(self.scale), free_index, fill,
+                       bucket_rows, bucket_vals)
+
+
+@dataclass(frozen=True, eq=False)
+class BlockHessian:
+    """A sparse matrix as 12 × 12 blocks over 4-vertex stencils (the contact pairs),
+    ``scale`` times: block k is vals[144 k : 144 (k + 1)], row-major over the 12 DOFs of
+    stencils[k]; blocks that share DOFs are summed. As triplets it would carry a row and
+    a column per entry (16 bytes with the value, against 8): in heavy contact, tens of
+    millions of entries. ``rows`` and ``cols`` are made for whoever asks."""
+
+    stencils: np.ndarray  # (k, 4) int64
+    vals: np.ndarray  # (144 k,)
+    scale: float = 1.0
+
+    @property
+    def size(self) -> int:
+        return len(self.vals)
+
+    @property
+    def rows(self) -> np.ndarray:
+        return block_triplet_indices(self.stencils)[0]
+
+    @property
+    def cols(self) -> np.ndarray:
+        return block_triplet_indices(self.stencils)[1]
+
+    @property
+    def values(self) -> np.ndarray:
+        return self.vals if self.scale == 1.0 else self.scale * self.vals
+
+    def scaled(self, w: float) -> "BlockHessian":
+        return self if w == 1.0 else dataclasses.replace(self, scale=self.scale * w)
+
+    def tocsr(self, n_dofs: int) -> "sp.csr_matrix":
+        return Triplets(*block_triplet_indices(self.stencils), self.values).tocsr(n_dofs)
+
+    def count_into(self, free_index, p, coupling, counts) -> None:
+        """As ``Triplets.count_into``, reading each entry's row and column from its block."""
+        ka.count_kept_blocks(self.stencils, self.vals, float(self.scale), free_index, p,
+                             coupling, counts)
+
+    def bucket_into(self, free_index, fill, bucket_rows, bucket_vals) -> None:
+        ka.bucket_kept_blocks(self.stencils, self.vals, float(self.scale), free_index, fill,
+                              bucket_rows, bucket_vals)
 
 
 @dataclass(frozen=True, eq=False)

@@ -17,7 +17,7 @@ from typing import ClassVar
 import numpy as np
 
 from ..kernels import contact_barrier as kb
-from .base import StepContext, Triplets
+from .base import BlockHessian, StepContext, Triplets
 
 
 @dataclass(frozen=True, eq=False)
@@ -46,5 +46,5 @@ class MeshContact:
         c = ctx.collisions
         if not c.may_be_active(self.dhat):
             return Triplets.empty()
-        return Triplets(*kb.barrier_hessian_triplets(x, c.pt, c.ee, c.ee_eps_x, self.s_hat,
-                                                     1.0, True))
+        return BlockHessian(*kb.barrier_hessian_blocks(x, c.pt, c.ee, c.ee_eps_x, self.s_hat,
+                                                       1.0, True))

@@ -118,18 +118,13 @@ def _merge(pat, data, parts: list, free_index, p, coupling):
     n = len(pat.indptr) - 1
     start = np.zeros(n + 1, dtype=np.int64)
     for d in parts:
-        ka.count_kept_columns(d.rows, d.cols, d.vals, float(d.scale), free_index, p,
-                              coupling, start)
+        d.count_into(free_index, p, coupling, start)
     del d  # the loop variable would keep the last term's triplets alive
     np.cumsum(start, out=start)
     bucket_rows = np.empty(int(start[-1]), dtype=np.int32)
     bucket_vals = np.empty(int(start[-1]))
     fill = start[:-1].copy()
     while parts:
-        _bucket(parts.pop(0), free_index, fill, bucket_rows, bucket_vals)
+        parts.pop(0).bucket_into(free_index, fill, bucket_rows, bucket_vals)
     return ka.merge_columns(pat.indptr, pat.indices, data, start, bucket_rows, bucket_vals)
 
-
-def _bucket(part, free_index, fill, bucket_rows, bucket_vals) -> None:
-    ka.bucket_kept(part.rows, part.cols, part.vals, float(part.scale), free_index, fill,
-                   bucket_rows, bucket_vals)

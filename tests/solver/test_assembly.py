@@ -96,3 +96,34 @@ def test_contact_triplets_merge_in_the_order_of_one_stable_sort():
     got_cols = np.repeat(np.arange(n), np.diff(indptr))
     assert (got_cols * n + indices).tolist() == want
     assert data.tolist() == [sums[k] for k in want]  # bit for bit
+
+
+def test_contact_blocks_merge_as_their_triplets_do():
+    """A BlockHessian (12 × 12 blocks over 4-vertex stencils, no row or column stored)
+    gives the same matrix and coupling, bit for bit, as the triplets it stands for."""
+    from ipcsim.potentials.base import BlockHessian
+
+    n_vertices = 20
+    n_dofs = 3 * n_vertices
+    stencils = np.array([RNG.choice(n_vertices, 4, replace=False) for _ in range(40)])
+    vals = RNG.normal(size=144 * len(stencils))
+    vals[RNG.random(vals.size) < 0.3] = 0.0  # uninvolved vertices' rows and columns
+    blocks = BlockHessian(stencils, vals).scaled(2.5)
+    triplets = Triplets(blocks.rows, blocks.cols, vals, 2.5)
+    assert blocks.rows.dtype == np.int32 and blocks.size == 144 * len(stencils)
+    np.testing.assert_array_equal(blocks.tocsr(n_dofs).toarray(),
+                                  triplets.tocsr(n_dofs).toarray())
+    static = [_random_triplets(n_dofs, 300)]
+    kinematic = np.zeros(n_dofs, dtype=bool)
+    kinematic[:9] = True  # three vertices prescribed: their columns go to the coupling
+    free_index = np.full(n_dofs, -1)
+    free_index[~kinematic] = np.arange((~kinematic).sum())
+    p = RNG.normal(size=n_dofs)
+    got = Assembler().assemble(static, [blocks], free_index, int((~kinematic).sum()), p)
+    want = Assembler().assemble(static, [triplets], free_index, int((~kinematic).sum()), p)
+    for a, b in zip((got[0].indptr, got[0].indices, got[0].data, got[1]),
+                    (want[0].indptr, want[0].indices, want[0].data, want[1])):
+        np.testing.assert_array_equal(a, b)
+    ref_A, ref_c = _reference(static + [triplets], kinematic, p)
+    np.testing.assert_allclose(got[0].toarray(), ref_A, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(got[1], ref_c, rtol=1e-12, atol=1e-12)
