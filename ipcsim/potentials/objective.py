@@ -54,8 +54,8 @@ class Evaluation:
     hessian: tuple[list[Triplets], list[Triplets]] | None = None
 
     def without_hessian(self) -> "Evaluation":
-        """The same evaluation without its Hessian triplets (which, in heavy contact, are
-        more memory than anything else Newton holds), once they are assembled."""
+        """The same evaluation without its Hessian (whose contact entries, in heavy
+        contact, are more memory than anything else Newton holds), once assembled."""
         return dataclasses.replace(self, hessian=None)
 
 

@@ -127,4 +127,3 @@ def _merge(pat, data, parts: list, free_index, p, coupling):
     while parts:
         parts.pop(0).bucket_into(free_index, fill, bucket_rows, bucket_vals)
     return ka.merge_columns(pat.indptr, pat.indices, data, start, bucket_rows, bucket_vals)
-

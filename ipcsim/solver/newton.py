@@ -128,7 +128,7 @@ class NewtonSolver:
             system = self._system(objective, x, ev, run)
             ev = ev.without_hessian()  # its triplets go before the factorisation
             p, remaining = self._direction(objective, x, system, run, it)
-            del system
+            del system  # the matrix too goes before the line search
             step_norm = np.abs(p[~kin_dofs]).max(initial=0.0)
             row = {"iteration": it, "step_inf_norm": step_norm, "tolerance": tol,
                    "gradient_norm": float(np.linalg.norm(ev.gradient[~kin_dofs])),
