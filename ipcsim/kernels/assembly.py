@@ -66,48 +66,6 @@ def block_triplet_indices(stencils):
     return rows, cols
 
 
-@njit(cache=True)
-def count_kept_blocks(stencils, vals, scale, free_index, p, coupling, counts):
-    """``count_kept_columns`` for 12 x 12 blocks over 4-vertex stencils: entry
-    144 k + 12 r + c of vals couples DOF 3 s[r//3] + r%3 with DOF 3 s[c//3] + c%3,
-    s = stencils[k] (``block_triplet_indices``), in that order."""
-    t = 0
-    for k in range(stencils.shape[0]):
-        for i in range(12):
-            dof_i = 3 * stencils[k, i // 3] + i % 3
-            r = free_index[dof_i]
-            for j in range(12):
-                v = scale * vals[t]
-                t += 1
-                if r < 0 or v == 0.0:
-                    continue
-                dof_j = 3 * stencils[k, j // 3] + j % 3
-                c = free_index[dof_j]
-                if c < 0:
-                    coupling[r] += v * p[dof_j]
-                else:
-                    counts[c + 1] += 1
-
-
-@njit(cache=True)
-def bucket_kept_blocks(stencils, vals, scale, free_index, fill, bucket_rows, bucket_vals):
-    """``bucket_kept`` for the blocks of ``count_kept_blocks``."""
-    t = 0
-    for k in range(stencils.shape[0]):
-        for i in range(12):
-            r = free_index[3 * stencils[k, i // 3] + i % 3]
-            for j in range(12):
-                v = scale * vals[t]
-                t += 1
-                if r < 0 or v == 0.0:
-                    continue
-                c = free_index[3 * stencils[k, j // 3] + j % 3]
-                if c >= 0:
-                    bucket_rows[fill[c]] = r
-                    bucket_vals[fill[c]] = v
-                    fill[c] += 1
-
-
 _INSERTION_BELOW = 32  # a column's triplets sorted by insertion up to this many
 
 

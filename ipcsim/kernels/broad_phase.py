@@ -249,10 +249,10 @@ def _scan_leaves(qi, min_slot, leaves, n_leaves, query, tree, self_collision, ds
 @njit(cache=True)
 def _pairs_of_one(qi, min_slot, query, tree, self_collision, dst, stack):
     # every kept pair of query qi walked alone (a query whose hits overflowed its buffer)
-    n = _leaves_met(_union_box(query[0], np.array([qi]), 0, 1), min_slot, tree,
-                    np.empty(0, np.int64), stack)
+    box = _union_box(query[0], np.array([qi]), 0, 1)
+    n = _leaves_met(box, min_slot, tree, np.empty(0, np.int64), stack)
     leaves = np.empty(n, np.int64)
-    _leaves_met(_union_box(query[0], np.array([qi]), 0, 1), min_slot, tree, leaves, stack)
+    _leaves_met(box, min_slot, tree, leaves, stack)
     return _scan_leaves(qi, min_slot, leaves, n, query, tree, self_collision, dst)
 
 

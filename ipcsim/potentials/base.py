@@ -111,11 +111,21 @@ class BlockHessian:
     ``scale`` times: block k is vals[144 k : 144 (k + 1)], row-major over the 12 DOFs of
     stencils[k]; blocks that share DOFs are summed. As triplets it would carry a row and
     a column per entry (16 bytes with the value, against 8): in heavy contact, tens of
-    millions of entries. ``rows`` and ``cols`` are made for whoever asks."""
+    millions of entries. The merge into the Newton matrix works out rows and columns
+    ``CHUNK`` blocks at a time; ``rows`` and ``cols`` are made whole for whoever asks."""
 
     stencils: np.ndarray  # (k, 4) int64
     vals: np.ndarray  # (144 k,)
     scale: float = 1.0
+    CHUNK: ClassVar[int] = 8192  # blocks per piece: 9 MB of rows and columns
+
+    def _pieces(self):
+        """``Triplets`` of CHUNK blocks at a time, in order (their rows and columns made
+        only for the piece)."""
+        for lo in range(0, len(self.stencils), self.CHUNK):
+            hi = min(lo + self.CHUNK, len(self.stencils))
+            rows, cols = block_triplet_indices(self.stencils[lo:hi])
+            yield Triplets(rows, cols, self.vals[144 * lo:144 * hi], self.scale)
 
     @property
     def size(self) -> int:
@@ -140,13 +150,13 @@ class BlockHessian:
         return Triplets(*block_triplet_indices(self.stencils), self.values).tocsr(n_dofs)
 
     def count_into(self, free_index, p, coupling, counts) -> None:
-        """As ``Triplets.count_into``, reading each entry's row and column from its block."""
-        ka.count_kept_blocks(self.stencils, self.vals, float(self.scale), free_index, p,
-                             coupling, counts)
+        """As ``Triplets.count_into``, a piece at a time."""
+        for piece in self._pieces():
+            piece.count_into(free_index, p, coupling, counts)
 
     def bucket_into(self, free_index, fill, bucket_rows, bucket_vals) -> None:
-        ka.bucket_kept_blocks(self.stencils, self.vals, float(self.scale), free_index, fill,
-                              bucket_rows, bucket_vals)
+        for piece in self._pieces():
+            piece.bucket_into(free_index, fill, bucket_rows, bucket_vals)
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,6 +1,7 @@
 """The cached-pattern assembler equals plain COO assembly with kinematic elimination."""
 
 import numpy as np
+import pytest
 import scipy.sparse as sp
 
 from ipcsim.potentials.base import Triplets
@@ -98,10 +99,13 @@ def test_contact_triplets_merge_in_the_order_of_one_stable_sort():
     assert data.tolist() == [sums[k] for k in want]  # bit for bit
 
 
-def test_contact_blocks_merge_as_their_triplets_do():
+@pytest.mark.parametrize("chunk", [8192, 7])  # one piece, and pieces of 7 blocks
+def test_contact_blocks_merge_as_their_triplets_do(chunk, monkeypatch):
     """A BlockHessian (12 × 12 blocks over 4-vertex stencils, no row or column stored)
     gives the same matrix and coupling, bit for bit, as the triplets it stands for."""
     from ipcsim.potentials.base import BlockHessian
+
+    monkeypatch.setattr(BlockHessian, "CHUNK", chunk)
 
     n_vertices = 20
     n_dofs = 3 * n_vertices
