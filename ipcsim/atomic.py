@@ -10,6 +10,7 @@ temporary file starts with a dot and ends in ``.tmp-<pid>``, so it never looks l
 from __future__ import annotations
 
 import os
+import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -64,16 +65,54 @@ def _fsync_folder(folder: Path) -> None:
         os.close(fd)
 
 
+# more files than this are forced to disk by one syncfs of their file system
+SYNCFS_ABOVE = 8
+
+
 def sync_to_disk(paths) -> None:
-    """Force files written without ``fsync`` (and their folders' renames) to disk."""
+    """Force files written without ``fsync`` (and their folders' renames) to disk.
+
+    Many files (a run's frames since its last checkpoint) go by one ``syncfs`` of each
+    file system they are on, where the system has it (Linux): an fsync costs 0.1–5 ms
+    each, which for a frame per step was a tenth of a small scene's run; a few go by
+    one fsync each (``syncfs`` also waits for whatever else is unwritten there)."""
+    paths = [Path(path) for path in paths]
+    if len(paths) > SYNCFS_ABOVE and _syncfs({path.parent for path in paths}):
+        return
     folders = set()
     for path in paths:
-        path = Path(path)
         if path.is_file():
             _fsync_file(path)
             folders.add(path.parent)
     for folder in folders:
         _fsync_folder(folder)
+
+
+def _syncfs(folders) -> bool:
+    """``syncfs`` the file system of each folder; False where that cannot be done."""
+    if not sys.platform.startswith("linux"):
+        return False
+    import ctypes
+
+    try:
+        syncfs = ctypes.CDLL(None, use_errno=True).syncfs
+    except (OSError, AttributeError):
+        return False
+    done = set()
+    for folder in folders:
+        try:
+            fd = os.open(folder, os.O_RDONLY)
+        except OSError:
+            return False
+        try:
+            device = os.fstat(fd).st_dev
+            if device not in done:
+                if syncfs(fd) != 0:
+                    return False
+                done.add(device)
+        finally:
+            os.close(fd)
+    return True
 
 
 def _discard(tmp: Path) -> None:

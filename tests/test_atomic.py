@@ -4,12 +4,15 @@ import os
 
 import pytest
 
+import ipcsim.atomic as atomic
+
 from ipcsim.atomic import (
     atomic_open,
     atomic_path,
     atomic_write_bytes,
     atomic_write_text,
     is_temporary_name,
+    sync_to_disk,
     temporary_path,
 )
 
@@ -84,3 +87,34 @@ def test_atomic_open_rejects_append_mode(tmp_path):
     with pytest.raises(ValueError):
         with atomic_open(tmp_path / "x", "a"):
             pass
+
+
+@pytest.mark.parametrize("syncfs_works", [True, False])
+def test_sync_to_disk_uses_one_syncfs_for_many_files(tmp_path, monkeypatch, syncfs_works):
+    """Many files go by one syncfs of their file system; a few, or many where syncfs
+    is not there, by one fsync each (files gone since are skipped)."""
+    calls = {"syncfs": [], "fsync": [], "folder": []}
+    monkeypatch.setattr(atomic, "_syncfs",
+                        lambda folders: calls["syncfs"].append(sorted(folders)) or syncfs_works)
+    monkeypatch.setattr(atomic, "_fsync_file", lambda path: calls["fsync"].append(path.name))
+    monkeypatch.setattr(atomic, "_fsync_folder", lambda folder: calls["folder"].append(folder))
+    few = [atomic_write_bytes(tmp_path / f"few{i}", b"x", fsync=False)
+           for i in range(atomic.SYNCFS_ABOVE)]
+    sync_to_disk(few + [tmp_path / "gone"])
+    assert calls["syncfs"] == [[tmp_path]]  # nine paths: more than SYNCFS_ABOVE
+    calls = {key: [] for key in calls}
+    sync_to_disk(few)
+    assert calls["syncfs"] == []
+    assert calls["fsync"] == [path.name for path in few] and calls["folder"] == [tmp_path]
+    calls = {key: [] for key in calls}
+    many = few + [atomic_write_bytes(tmp_path / "one more", b"x", fsync=False)]
+    sync_to_disk(many)
+    assert calls["syncfs"] == [[tmp_path]]
+    assert calls["fsync"] == ([] if syncfs_works else [path.name for path in many])
+
+
+def test_syncfs_of_a_real_folder(tmp_path):
+    atomic_write_bytes(tmp_path / "a", b"data", fsync=False)
+    expected = os.uname().sysname == "Linux"
+    assert atomic._syncfs({tmp_path}) is expected
+    assert atomic._syncfs({tmp_path / "missing"}) is False
