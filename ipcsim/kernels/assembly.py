@@ -66,37 +66,39 @@ def block_triplet_indices(stencils):
     return rows, cols
 
 
-_INSERTION_BELOW = 32  # a column's triplets sorted by insertion up to this many
+_INSERTION_BELOW = 32  # a column's distinct rows sorted by insertion up to this many
 
 
-@njit(cache=True)
-def _sum_column(rows, vals, lo, hi):
-    """Sort rows[lo:hi] stably (vals along) and sum equal rows in order, compacting to
-    the front: returns the number of distinct rows."""
-    if hi - lo <= _INSERTION_BELOW:
-        for i in range(lo + 1, hi):
+@njit(cache=True, inline="always")
+def _sum_column(rows, vals, lo, hi, column, total, seen):
+    """Sum the triplets rows[lo:hi] (vals along) by row and compact them to the front,
+    rows sorted: returns the number of distinct rows. Each row's values are summed in
+    triplet order (the sums of one stable sort by row), in a dense accumulator
+    ``total`` (n,) marked per column in ``seen`` (n,): only the distinct rows are sorted
+    (a contact vertex's column holds each of its few dozen rows many times over)."""
+    u = lo
+    for t in range(lo, hi):
+        r = rows[t]
+        if seen[r] != column:
+            seen[r] = column
+            total[r] = vals[t]
+            rows[u] = r  # u ≤ t: a distinct row never overwrites one still to be read
+            u += 1
+        else:
+            total[r] += vals[t]
+    if u - lo <= _INSERTION_BELOW:
+        for i in range(lo + 1, u):
             r = rows[i]
-            v = vals[i]
             k = i - 1
-            while k >= lo and rows[k] > r:  # strict: equal rows keep their order
+            while k >= lo and rows[k] > r:
                 rows[k + 1] = rows[k]
-                vals[k + 1] = vals[k]
                 k -= 1
             rows[k + 1] = r
-            vals[k + 1] = v
     else:
-        order = np.argsort(rows[lo:hi], kind="mergesort")
-        rows[lo:hi] = rows[lo:hi][order]
-        vals[lo:hi] = vals[lo:hi][order]
-    u = lo
-    for t in range(lo + 1, hi):
-        if rows[t] == rows[u]:
-            vals[u] += vals[t]
-        else:
-            u += 1
-            rows[u] = rows[t]
-            vals[u] = vals[t]
-    return u + 1 - lo if hi > lo else 0
+        rows[lo:u].sort()
+    for t in range(lo, u):
+        vals[t] = total[rows[t]]
+    return u - lo
 
 
 @njit(cache=True)
@@ -108,8 +110,11 @@ def merge_columns(indptr, indices, data, start, bucket_rows, bucket_vals):
     of one stable sort of every (column, row) key), then added to A's entries."""
     n = indptr.shape[0] - 1
     distinct = np.empty(n, dtype=np.int64)
+    total = np.empty(n)
+    seen = np.full(n, -1, dtype=np.int64)
     for c in range(n):
-        distinct[c] = _sum_column(bucket_rows, bucket_vals, start[c], start[c + 1])
+        distinct[c] = _sum_column(bucket_rows, bucket_vals, start[c], start[c + 1], c,
+                                  total, seen)
     size = distinct.sum()
     out_ptr = np.zeros(n + 1, dtype=np.int32)  # int32 as scipy keeps it (sizes < 2³¹)
     out_idx = np.empty(indices.shape[0] + size, dtype=np.int32)
