@@ -96,15 +96,20 @@ class NewtonSolver:
         self.timer = timer or PhaseTimer()
         self.observer = observer
         self.assembler = Assembler()
-        self._free = None  # (kinematic mask, DOF -> free index), reused while unchanged
+        self._free = []  # (kinematic mask, DOF -> free index) of the last two masks
 
     def _free_index(self, kinematic):
-        if self._free is None or not np.array_equal(self._free[0], kinematic):
-            free_dofs = ~np.repeat(kinematic, 3)
-            index = np.full(free_dofs.size, -1, dtype=np.int64)
-            index[free_dofs] = np.arange(int(free_dofs.sum()))
-            self._free = (kinematic.copy(), index)
-        return self._free[1]
+        """DOF -> free DOF number (−1 if kinematic), the same array while the mask is one
+        of the last two seen: a step that pulls its prescribed vertices goes back and
+        forth between two masks, and the assembler keeps its pattern per array."""
+        for mask, index in self._free:
+            if np.array_equal(mask, kinematic):
+                return index
+        free_dofs = ~np.repeat(kinematic, 3)
+        index = np.full(free_dofs.size, -1, dtype=np.int64)
+        index[free_dofs] = np.arange(int(free_dofs.sum()))
+        self._free = [(kinematic.copy(), index), *self._free[:1]]
+        return index
 
     def solve(self, objective, x0: np.ndarray, tol: float) -> NewtonResult:
         """Minimise ``objective`` from ``x0`` (n, 3) until ‖p‖∞ < tol with the prescribed

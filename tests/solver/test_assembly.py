@@ -53,8 +53,44 @@ def test_assembly_matches_reference_and_reuses_the_pattern():
             np.testing.assert_allclose(A.toarray(), ref_A, rtol=1e-12, atol=1e-12)
             np.testing.assert_allclose(coupling, ref_c, rtol=1e-12, atol=1e-12)
             if not step:  # only empty dynamic parts: the static pattern itself, no copy
-                assert A.indices is assembler._pattern.indices
+                assert A.indices is assembler._patterns[0].indices
 
+
+
+def test_a_pull_going_back_and_forth_between_two_masks_builds_two_patterns(monkeypatch):
+    """A step that pulls its prescribed vertices alternates between two kinematic masks
+    (the free-index array of each is kept by Newton): the assembler builds each mask's
+    pattern once, and a third mask lets the least recently used one go."""
+    import ipcsim.solver.assembly as assembly
+
+    built = []
+    real = assembly._StaticPattern
+
+    def counting(parts, free_index, n_free):
+        built.append(n_free)
+        return real(parts, free_index, n_free)
+
+    monkeypatch.setattr(assembly, "_StaticPattern", counting)
+    n_dofs = 30
+    static = [_random_triplets(n_dofs, 300)]
+    masks = [np.zeros(n_dofs, dtype=bool) for _ in range(3)]
+    masks[0][:6] = True
+    masks[2][-3:] = True
+    free_indices = []
+    for kinematic in masks:
+        free_index = np.full(n_dofs, -1)
+        free_index[~kinematic] = np.arange((~kinematic).sum())
+        free_indices.append(free_index)
+    assembler = Assembler()
+    for which in (0, 1, 0, 1, 0, 2, 0, 1):
+        kinematic, free_index = masks[which], free_indices[which]
+        p = RNG.normal(size=n_dofs)
+        A, coupling = assembler.assemble(static, [], free_index, int((~kinematic).sum()), p)
+        ref_A, ref_c = _reference(static, kinematic, p)
+        np.testing.assert_allclose(A.toarray(), ref_A, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(coupling, ref_c, rtol=1e-12, atol=1e-12)
+    # masks 0 and 1 once each; 2 evicts 1 (0 was used last); 1 again after 0
+    assert built == [24, 30, 27, 30]
 
 def test_contact_triplets_merge_in_the_order_of_one_stable_sort():
     """The contact triplets are bucketed by column and each column sorted and summed; the
@@ -131,3 +167,20 @@ def test_contact_blocks_merge_as_their_triplets_do(chunk, monkeypatch):
     ref_A, ref_c = _reference(static + [triplets], kinematic, p)
     np.testing.assert_allclose(got[0].toarray(), ref_A, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(got[1], ref_c, rtol=1e-12, atol=1e-12)
+
+
+def test_newton_keeps_the_free_index_of_the_last_two_masks():
+    """The assembler knows a pattern by its free-index array: Newton hands out the same
+    array for a mask while it is one of the last two seen."""
+    from ipcsim.solver.newton import NewtonSolver
+
+    newton = NewtonSolver(settings=None, linear_solver=None)
+    a, b, c = (np.zeros(5, dtype=bool) for _ in range(3))
+    a[0] = True
+    c[4] = True
+    first_a, first_b = newton._free_index(a), newton._free_index(b)
+    assert newton._free_index(a.copy()) is first_a and newton._free_index(b) is first_b
+    np.testing.assert_array_equal(first_a, [-1, -1, -1, *range(12)])
+    newton._free_index(c)  # a third mask: a, the least recently made, goes
+    assert newton._free_index(b) is first_b
+    assert newton._free_index(a) is not first_a
