@@ -225,25 +225,61 @@ def scatter_into_pattern(data, slots, vals, scale, rows, cols, free_index, p, co
 
 
 @njit(cache=True)
+def element_block_slots(elements, free_index, indptr, indices):
+    """The slots of per-element blocks in the CSC pattern, one per (element, row vertex,
+    local column), int32: entry (3k + a, j) of element e's block sits at slot
+    s[e, k, j] + a. A vertex's three DOFs are free or kinematic together and number
+    consecutively, so its three rows are adjacent in every column (a third of the slots
+    of one per entry: 48 rather than 144 per tet). −1 where the row vertex or the
+    column is kinematic."""
+    m, nv = elements.shape
+    nd = 3 * nv
+    slots = np.full(m * nv * nd, -1, dtype=np.int32)
+    for e in range(m):
+        for j in range(nd):
+            c = free_index[3 * elements[e, j // 3] + j % 3]
+            if c < 0:
+                continue
+            for k in range(nv):
+                r = free_index[3 * elements[e, k]]
+                if r < 0:
+                    continue
+                lo, hi = indptr[c], indptr[c + 1]
+                while lo < hi:
+                    mid = (lo + hi) // 2
+                    if indices[mid] < r:
+                        lo = mid + 1
+                    else:
+                        hi = mid
+                slots[(e * nv + k) * nd + j] = lo
+    return slots
+
+
+@njit(cache=True)
 def scatter_element_blocks(data, slots, vals, scale, elements, free_index, p, coupling):
     """scatter_into_pattern for per-element blocks: entry e·B + 3nv·i + j of vals (B =
     (3nv)², nv = elements.shape[1]) couples DOF 3·elements[e, i // 3] + i % 3 with DOF
-    3·elements[e, j // 3] + j % 3; its row and column are only worked out for the entries
-    of kinematic columns (slot −1), whose product with p goes into the coupling."""
-    nd = 3 * elements.shape[1]
+    3·elements[e, j // 3] + j % 3 and goes to slot s + i % 3, s the slot of its row
+    vertex and column (``element_block_slots``); its row and column are only worked out
+    for entries of kinematic columns (slot −1), whose product with p goes into the
+    coupling."""
+    nv = elements.shape[1]
+    nd = 3 * nv
     t = 0
     for e in range(elements.shape[0]):
         for i in range(nd):
+            row_slots = (e * nv + i // 3) * nd
+            a = i % 3
             r = -1  # the free row of local DOF i, found when a kinematic column needs it
             for j in range(nd):
                 v = scale * vals[t]
-                s = slots[t]
+                s = slots[row_slots + j]
                 t += 1
                 if s >= 0:
-                    data[s] += v
+                    data[s + a] += v
                     continue
                 if r == -1:
-                    r = free_index[3 * elements[e, i // 3] + i % 3]
+                    r = free_index[3 * elements[e, i // 3] + a]
                     if r < 0:
                         r = -2  # a kinematic row: its entries are dropped
                 if r >= 0:

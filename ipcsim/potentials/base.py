@@ -88,6 +88,11 @@ class Triplets:
 
         return sp.csr_matrix((self.values, (self.rows, self.cols)), shape=(n_dofs, n_dofs))
 
+    def slots_in(self, free_index, indptr, indices) -> np.ndarray:
+        """Each triplet's slot in a CSC pattern over free DOFs that holds it (int32, −1
+        where its row or column is kinematic), for ``scatter_into``."""
+        return ka.csc_slots(self.rows, self.cols, free_index, indptr, indices)
+
     def scatter_into(self, data, slots, free_index, p, coupling) -> None:
         """data[slots[t]] += scale·vals[t] (a constant pattern's CSC slots, −1 where a row
         or column is kinematic); free rows' entries in kinematic columns go to coupling."""
@@ -223,9 +228,23 @@ class ElementHessian:
         rows, cols = self.element_pattern(self.elements)
         return Triplets(rows, cols, self.values).tocsr(n_dofs)
 
+    def slots_in(self, free_index, indptr, indices) -> np.ndarray:
+        """The blocks' slots in a CSC pattern over free DOFs that holds them: one per
+        (element, row vertex, column), a vertex's three rows being adjacent
+        (``kernels/assembly.element_block_slots``). A vertex's DOFs must be free or
+        kinematic together, as Newton's masks (one per vertex) make them."""
+        by_vertex = free_index.reshape(-1, 3)
+        first = by_vertex[:, :1]
+        if not np.array_equal(by_vertex[:, 1:], np.where(first < 0, -1, first + [1, 2])):
+            raise ValueError("element blocks need each vertex's three DOFs free (numbered "
+                             "consecutively) or kinematic together")
+        return ka.element_block_slots(self.elements, free_index, indptr, indices)
+
     def scatter_into(self, data, slots, free_index, p, coupling) -> None:
-        """As ``Triplets.scatter_into``, one chunk of elements at a time."""
-        b = self.block
+        """As ``Triplets.scatter_into`` (with ``slots_in``'s slots), one chunk of elements
+        at a time."""
+        nv = self.elements.shape[1]
+        b = nv * 3 * nv  # slots per element
         for lo in range(0, self.n_elements, self.CHUNK):
             hi = min(lo + self.CHUNK, self.n_elements)
             ka.scatter_element_blocks(data, slots[b * lo:b * hi],

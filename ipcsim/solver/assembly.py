@@ -51,8 +51,9 @@ class _StaticPattern:
     """CSC structure of the constant-pattern terms and each triplet's slot in it.
 
     Built without sorting all triplets: the free rows of each free column are bucketed,
-    sorted and made unique column by column, and each triplet finds its slot by bisection;
-    what is kept is one int32 slot per triplet (−1 for kinematic rows or columns)."""
+    sorted and made unique column by column, and each part finds its slots by bisection
+    (``slots_in``): what is kept is one int32 slot per triplet (−1 for kinematic rows or
+    columns), or per element block's row vertex and column."""
 
     def __init__(self, parts, free_index, n_free):
         self.keys = [p.pattern_key for p in parts]
@@ -69,17 +70,8 @@ class _StaticPattern:
                 ka.bucket_rows(rows, cols, free_index, fill, bucket)
         self.indptr, self.indices = ka.unique_column_rows(start, bucket)
         del bucket
-        self.slots = [self._slots(p) for p in parts]
+        self.slots = [p.slots_in(free_index, self.indptr, self.indices) for p in parts]
         self.n_free = n_free
-
-    def _slots(self, part) -> np.ndarray:
-        slots = np.empty(part.size, dtype=np.int32)
-        at = 0
-        for rows, cols in part.pattern_chunks():
-            slots[at:at + len(rows)] = ka.csc_slots(rows, cols, self.free_index, self.indptr,
-                                                    self.indices)
-            at += len(rows)
-        return slots
 
     def matches(self, parts, free_index) -> bool:
         return (free_index is self.free_index and len(parts) == len(self.keys)

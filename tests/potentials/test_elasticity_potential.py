@@ -192,8 +192,7 @@ def test_element_hessian_assembles_chunk_by_chunk_as_its_values_do(monkeypatch):
     assert isinstance(H, ElementHessian) and H.n_elements > 7
     monkeypatch.setattr(ElementHessian, "CHUNK", 7)  # several chunks and a ragged last one
     n_dofs = x.size
-    kinematic = np.zeros(n_dofs, dtype=bool)
-    kinematic[rng.choice(n_dofs, 9, replace=False)] = True
+    kinematic = np.repeat(np.isin(np.arange(len(x)), rng.choice(len(x), 3, replace=False)), 3)
     free_index = np.full(n_dofs, -1)
     free_index[~kinematic] = np.arange((~kinematic).sum())
     p = rng.normal(size=n_dofs)
@@ -208,3 +207,9 @@ def test_element_hessian_assembles_chunk_by_chunk_as_its_values_do(monkeypatch):
     np.testing.assert_allclose(A.toarray(), H_ref[np.ix_(free, free)], rtol=1e-12, atol=1e-9)
     np.testing.assert_allclose(coupling, H_ref[np.ix_(free, kinematic)] @ p[kinematic],
                                rtol=1e-12, atol=1e-9)
+    # its slots come per row vertex: a mask that splits a vertex's DOFs is refused
+    kinematic[np.flatnonzero(kinematic)[1]] = False  # the middle DOF of a vertex
+    free_index = np.full(n_dofs, -1)
+    free_index[~kinematic] = np.arange((~kinematic).sum())
+    with pytest.raises(ValueError, match="three DOFs"):
+        Assembler().assemble([H], [], free_index, int((~kinematic).sum()), p)
