@@ -13,6 +13,7 @@ Toolkit's merged, weighted set: pairs farther than d̂ contribute nothing.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -62,17 +63,22 @@ class Collisions:
     def may_be_active(self, dhat: float) -> bool:
         """False when the distances show no pair closer than d̂ (at the positions the set
         was found at); True when some is, or when the set has no distances (swept)."""
-        d = self.distances
-        if d is None:
+        if self.distances is None:
             return len(self) > 0
-        s_hat = dhat * dhat
-        return bool((d.pt_d2 < s_hat).any() or (d.ee_d2 < s_hat).any())
+        return self._min_d2 < dhat * dhat
+
+    @cached_property
+    def _min_d2(self) -> float:
+        """The smallest squared distance at the positions found at (inf without pairs);
+        asked by each term at each evaluation, so found once."""
+        d = self.distances
+        return float(min(d.pt_d2.min(initial=np.inf), d.ee_d2.min(initial=np.inf)))
 
     def count(self, dhat: float) -> MeshContactCount:
         """Active pairs and the smallest distance (needs the distances)."""
         d = self.distances
         s_hat = dhat * dhat
-        dmin = np.sqrt(min(d.pt_d2.min(initial=np.inf), d.ee_d2.min(initial=np.inf)))
+        dmin = np.sqrt(self._min_d2)
         return MeshContactCount(int(np.count_nonzero(d.pt_d2 < s_hat)),
                                 int(np.count_nonzero(d.ee_d2 < s_hat)), float(dmin))
 
