@@ -73,9 +73,11 @@ class _LowerPattern:
     ``values(data)`` is a single gather. The row and column of each kept entry (16 bytes
     an entry) are made when a backend builds its matrix (``rows_and_columns``), not kept."""
 
-    def __init__(self, indptr, indices, n):
-        self.indptr_full = np.array(indptr, copy=True)
-        self.indices_full = np.array(indices, copy=True)
+    def __init__(self, indptr, indices, n, keep: bool = False):
+        """``keep``: the arrays are never written after this (the Newton matrix's, see
+        ``assembly.CscMatrix``): kept as they are rather than copied."""
+        self.indptr_full = indptr if keep else np.array(indptr, copy=True)
+        self.indices_full = indices if keep else np.array(indices, copy=True)
         self.n = n
         col = np.repeat(np.arange(n, dtype=np.int64), np.diff(self.indptr_full))
         self.mask = self.indices_full >= col
@@ -231,7 +233,7 @@ class CholmodSolver(_Factorising):
             return False
         # a new pattern: let the old matrix and factor go before the new ones are built
         self._pattern = self._K = self._factor = None
-        pat = _LowerPattern(indptr, indices, n)
+        pat = _LowerPattern(indptr, indices, n, keep=getattr(A, "fixed_arrays", False))
         self._K = spmatrix(pat.values(data), *pat.rows_and_columns(), size=(n, n))
         self._pattern = pat
         self._analysed = False
@@ -385,7 +387,7 @@ class PardisoSolver(_Factorising):
             return False
         if n >= 2**31 or len(indices) >= 2**31:
             raise SolverError("matrix too large for 32-bit PARDISO indices")
-        pat = _LowerPattern(indptr, indices, n)
+        pat = _LowerPattern(indptr, indices, n, keep=getattr(A, "fixed_arrays", False))
         rows, _ = pat.rows_and_columns()
         if not pat.has_diagonal(rows):  # PARDISO needs every diagonal entry; SPD needs it > 0
             raise SolverError("matrix has a structurally zero diagonal entry (not positive definite)")

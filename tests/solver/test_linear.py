@@ -234,3 +234,23 @@ def test_solve_again_reuses_the_last_factor(name):
     b = rng.standard_normal(A.shape[0])
     assert rel_residual(A, solver.solve_again(b), b) < 1e-10
     assert solver.solve_again(np.zeros(0)).shape == (0,)
+
+
+@pytest.mark.parametrize("name", [n for n in ("cholmod", "pardiso") if n in AVAILABLE])
+def test_the_newton_matrix_arrays_are_kept_and_other_matrices_copied(name):
+    """A solver remembers a pattern by its index arrays: the Newton matrix's own
+    (``CscMatrix``, never written once made) are kept as they are, a scipy matrix's are
+    copied, since its owner may change them."""
+    from ipcsim.solver.assembly import CscMatrix
+
+    A = block_spd(30, seed=4)
+    b = np.arange(A.shape[0], dtype=float)
+    ours = CscMatrix(A.data.copy(), A.indices.copy(), A.indptr.copy(), A.shape)
+    solver = make_solver(name)
+    x = solver.solve(ours, b)
+    assert solver._pattern.indices_full is ours.indices
+    assert rel_residual(A, x, b) < 1e-10
+    solver = make_solver(name)
+    solver.solve(A, b)
+    assert solver._pattern.indices_full is not A.indices
+    np.testing.assert_array_equal(solver._pattern.indices_full, A.indices)
