@@ -20,8 +20,7 @@ Its state is explicit: the step's ``StepContext`` (replaced, never written to), 
 (``contact.ccd.line_search_bound`` starts from it) and ``revision``, which counts the
 changes of the potential itself (a pull started, tightened or ended: energies from
 before are not comparable). The collision set of the last evaluated x is kept for a
-repeat call at equal positions (compared by value), and handed to the next step, which
-starts where this one ended.
+repeat call at equal positions (compared by value).
 """
 
 from __future__ import annotations
@@ -114,12 +113,10 @@ class StepObjective:
     def __init__(self, potential: IncrementalPotential, ctx: StepContext,
                  contact: ContactSetup, stiffness: BarrierStiffness, timer,
                  pullable: tuple[np.ndarray, np.ndarray] | None = None,
-                 small_step: float = 0.0,
-                 collisions_at: tuple[np.ndarray, Collisions] | None = None):
+                 small_step: float = 0.0):
         """``pullable``: (mass (n,), mask (n,) of the vertices of bodies: what a pull may
         take of the prescribed vertices), None for no pull; ``small_step``: the pull
-        schedule's ‖p‖∞ (``PullSchedule``); ``collisions_at``: (x, the collision set at x)
-        known already (the previous step's, at its last iterate: this step's start)."""
+        schedule's ‖p‖∞ (``PullSchedule``)."""
         self.potential = self._base_potential = potential
         self.ctx = ctx
         self.contact = contact
@@ -132,7 +129,7 @@ class StepObjective:
         self._schedule: PullSchedule | None = None
         self.revision = 0
         self.last_ccd_alpha = 1.0  # CCD's α at this step's previous line search
-        self._collisions_at = collisions_at
+        self._collisions_at: tuple[np.ndarray, Collisions] | None = None
         # (y, swept set): the last point Newton took along a line search, and its pairs
         self._on_segment: tuple[np.ndarray, Collisions | None] | None = None
 
@@ -250,11 +247,6 @@ class StepObjective:
         self.potential = (self._base_potential if pull is None
                           else IncrementalPotential(terms + (WeightedTerm(pull),)))
         self.revision += 1
-
-    @property
-    def kept_collisions(self) -> tuple[np.ndarray, Collisions] | None:
-        """(x, the collision set at x) of the last x evaluated, for the next step."""
-        return self._collisions_at
 
     def took(self, y: np.ndarray, swept: Collisions | None) -> None:
         """Newton takes y, a point of a line search that swept the pairs ``swept``."""
