@@ -188,6 +188,19 @@ def unique_column_rows(start, bucket):
     return indptr, bucket[:o].copy()
 
 
+@njit(cache=True, inline="always")
+def _slot_in_column(indptr, indices, c, r):
+    # the position of row r among column c's sorted rows (bisection)
+    lo, hi = indptr[c], indptr[c + 1]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if indices[mid] < r:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
 @njit(cache=True)
 def csc_slots(rows, cols, free_index, indptr, indices):
     """The slot of every triplet in the CSC pattern (int32; −1 when its row or column is
@@ -198,14 +211,7 @@ def csc_slots(rows, cols, free_index, indptr, indices):
         c = free_index[cols[t]]
         if r < 0 or c < 0:
             continue
-        lo, hi = indptr[c], indptr[c + 1]
-        while lo < hi:
-            mid = (lo + hi) // 2
-            if indices[mid] < r:
-                lo = mid + 1
-            else:
-                hi = mid
-        slots[t] = lo
+        slots[t] = _slot_in_column(indptr, indices, c, r)
     return slots
 
 
@@ -244,14 +250,7 @@ def element_block_slots(elements, free_index, indptr, indices):
                 r = free_index[3 * elements[e, k]]
                 if r < 0:
                     continue
-                lo, hi = indptr[c], indptr[c + 1]
-                while lo < hi:
-                    mid = (lo + hi) // 2
-                    if indices[mid] < r:
-                        lo = mid + 1
-                    else:
-                        hi = mid
-                slots[(e * nv + k) * nd + j] = lo
+                slots[(e * nv + k) * nd + j] = _slot_in_column(indptr, indices, c, r)
     return slots
 
 
