@@ -28,6 +28,7 @@ from .contact.stiffness import BarrierStiffness, kappa_bounds
 from .errors import InfeasibleStartError, NonFiniteError, SolverError
 from .kernels.threads import use_threads
 from .model.kinematics import kinematic_targets, nbc_accelerations
+from .model.surface import index_set
 from .potentials.base import StepContext, Triplets
 from .potentials.objective import StepObjective
 from .potentials.terms import incremental_potential
@@ -294,7 +295,7 @@ class Simulation:
 
 def _initial_stiffness(model, contact: ContactSetup) -> BarrierStiffness:
     n = model.n_vertices
-    tet_vertices = np.unique(model.tets) if len(model.tets) else np.arange(n)
+    tet_vertices = index_set(model.tets) if len(model.tets) else np.arange(n)
     kappa_min, kappa_max = kappa_bounds(model.bbox_diagonal, model.dhat,
                                         float(model.mass[tet_vertices].mean()),
                                         model.kappa_min_multiplier)

@@ -29,7 +29,7 @@ from . import legacy_scripts
 from .kinematics import rotation_axis_angle, rotation_xyz
 from .model import (GRAVITY, ConstraintSolverSettings, DirichletSet, MeshSequence, Model,
                     NeumannSet, SolverSettings, TimeSettings)
-from .surface import boundary_triangles, tet_signed_volumes, unique_edges
+from .surface import boundary_triangles, index_set, tet_signed_volumes, unique_edges
 
 SEQUENCE_EXT = {"tet": "msh", "surface": "obj", "segments": "seg", "points": "pt"}
 ENERGY_NAMES = {"NH": "neo-Hookean", "FCR": "fixed corotated"}
@@ -470,8 +470,8 @@ def _collision_mesh(scene, all_parts, offsets, rest, elastic: _Elastic) -> _Coll
         mass[pts] = avg_tet_mass
     triangles = _stack(tri_blocks, (0, 3))
     edges = _stack(edge_blocks, (0, 2))
-    vertices = np.unique(np.concatenate([triangles.ravel(), edges.ravel(), *point_blocks,
-                                         np.zeros(0, np.int64)]).astype(np.int64))
+    vertices = index_set(np.concatenate([triangles.ravel(), edges.ravel(), *point_blocks,
+                                         np.zeros(0, np.int64)]))
     return _CollisionMesh(triangles, _stack(tri_shape, (0,)), edges, _stack(edge_shape, (0,)),
                           vertices, mass)
 
@@ -482,7 +482,7 @@ def _stack(blocks, empty_shape) -> np.ndarray:
 
 def _tet_bbox_diagonal(scene, rest, tets) -> float:
     """l: the rest AABB diagonal of all tet shapes, the unit of relative parameters."""
-    tet_rest = rest[np.unique(tets)]
+    tet_rest = rest[index_set(tets)]
     l = float(np.linalg.norm(tet_rest.max(axis=0) - tet_rest.min(axis=0)))
     if not l > 0.0:
         raise _scene_error(scene, None, "the tet shapes have a zero bounding box")

@@ -21,6 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MeshError
+from .gmsh import GmshText
+from .gmsh import parse as parse_gmsh
 from .surface import TET_FACES, _row_keys, boundary_triangles, tet_signed_volumes
 
 __all__ = [
@@ -180,70 +182,23 @@ def check_segments(edges: np.ndarray, path, line) -> None:
 # ----------------------------------------------------------------------------- Gmsh tags
 
 
-def _section(text: str, name: str) -> list[str] | None:
-    """The lines between ``$name`` and ``$Endname``, or None when there is no such section."""
-    begin = text.find(f"${name}")
-    if begin < 0:
-        return None
-    body = text.find("\n", begin) + 1
-    end = text.find(f"$End{name}", body)
-    return text[body:end if end >= 0 else len(text)].split("\n")
-
-
-def _ints(lines: list[str]) -> np.ndarray:
-    return np.array(" ".join(lines).split(), dtype=np.int64)
-
-
-def _tags_v41(nodes: list[str], elements: list[str]) -> tuple[np.ndarray, list]:
-    """Node tags and, per element block, its (elements, 1 + nodes) table (MSH 4.1)."""
-    tags, i = [], 1
-    for _ in range(int(nodes[0].split()[0])):
-        n = int(nodes[i].split()[3])  # entityDim entityTag parametric numNodesInBlock
-        tags.append(_ints(nodes[i + 1:i + 1 + n]))
-        i += 1 + 2 * n  # the tags, then one coordinate line per node
-    blocks, i = [], 1
-    for _ in range(int(elements[0].split()[0])):
-        n = int(elements[i].split()[3])
-        rows = _ints(elements[i + 1:i + 1 + n])
-        blocks.append(rows.reshape(n, -1) if n else rows.reshape(0, 2))
-        i += 1 + n
-    return (np.concatenate(tags) if tags else np.zeros(0, np.int64)), blocks
-
-
-def _tags_v22(nodes: list[str], elements: list[str]) -> tuple[np.ndarray, list]:
-    """Node tags and one (elements, 1 + nodes) table per element (MSH 2.2)."""
-    n = int(nodes[0])
-    tags = np.array([row.split(maxsplit=1)[0] for row in nodes[1:1 + n]], dtype=np.int64)
-    blocks = []
-    for row in elements[1:1 + int(elements[0])]:
-        v = [int(t) for t in row.split()]  # tag type ntags tag... node...
-        blocks.append(np.array([[v[0], *v[3 + v[2]:]]], dtype=np.int64))
-    return tags, blocks
-
-
-def check_gmsh_tags(path, line) -> None:
+def check_gmsh_tags(path, line, parsed: GmshText | None = None) -> None:
     """In an ASCII Gmsh file (MSH 2.2 or 4.1), every node tag is positive and every node
-    an element names is a node of the file. Binary files are left to meshio."""
-    try:
-        text = Path(path).read_text(encoding="utf-8", errors="replace")
-    except OSError:
-        return  # the reader itself reports why the file cannot be read
-    fmt = _section(text, "MeshFormat")
-    nodes, elements = _section(text, "Nodes"), _section(text, "Elements")
-    if not fmt or nodes is None or elements is None or len(fmt[0].split()) < 2:
-        return
-    version, file_type = fmt[0].split()[:2]
-    if file_type != "0" or version not in ("2.2", "4.1"):
-        return
-    try:
-        read = _tags_v41 if version == "4.1" else _tags_v22
-        node_tags, blocks = read(nodes, elements)
-    except (ValueError, IndexError):
-        return  # malformed: meshio's reader names the problem
+    an element names is a node of the file. Binary files are left to meshio. ``parsed``:
+    the file as ``gmsh.parse`` read it (else it is read here)."""
+    if parsed is None:
+        try:
+            text = Path(path).read_text(encoding="utf-8", errors="replace")
+        except OSError:
+            return  # the reader itself reports why the file cannot be read
+        parsed = parse_gmsh(text)
+    if parsed is None:
+        return  # binary or malformed: meshio's reader names the problem
+    node_tags = parsed.node_tags
     if len(node_tags) and node_tags.min() < 1:
         raise _err(path, line, f"node tag {int(node_tags.min())} in $Nodes: Gmsh node tags "
                                "are positive")
-    for block in blocks:
+    for _, block in parsed.blocks:
         used = block[:, 1:]
         missing = ~np.isin(used, node_tags)
         if missing.any():

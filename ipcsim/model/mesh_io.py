@@ -2,9 +2,10 @@
 
 Formats (docs/ipc-scene-format.md §6):
 
-* tet meshes: Gmsh ``.msh`` 2.2 / 4.1 (meshio, ``file_format="gmsh"``; the original's
-  trailing ``$Surface`` block is ignored and the boundary recomputed), ``.vtk`` / ``.vtu``
-  (meshio), TetGen ``.node`` + ``.ele`` (own reader);
+* tet meshes: Gmsh ``.msh`` 4.1 ASCII (own reader, ``gmsh.py``) and 2.2 or binary (meshio,
+  ``file_format="gmsh"``; the original's trailing ``$Surface`` block is ignored and the
+  boundary recomputed), ``.vtk`` / ``.vtu`` (meshio), TetGen ``.node`` + ``.ele`` (own
+  reader);
 * ``.obj`` triangle surfaces (meshio, with a minimal fallback parser for files meshio
   rejects, e.g. normal-count mismatches);
 * ``.seg`` segments (``v x y z`` / ``s i j``, 1-based; missing file -> unique edges of the
@@ -26,6 +27,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MeshError, excerpt, one_line
+from .gmsh import GmshText
+from .gmsh import parse as parse_gmsh
 from .mesh_check import (
     check_gmsh_tags,
     check_indices,
@@ -127,8 +130,16 @@ def read_tet_mesh(path, line: int | None = None) -> tuple[np.ndarray, np.ndarray
         if fmt is None:
             raise _err(path, line, f"unsupported tet mesh format '{suffix}' "
                                    "(use .msh, .vtk, .vtu or TetGen .node/.ele)")
+        parsed = None
         if fmt == "gmsh":
-            check_gmsh_tags(path, line)  # before meshio maps a bad tag onto another node
+            parsed = _gmsh_text(path)
+            check_gmsh_tags(path, line, parsed)  # before meshio maps a bad tag elsewhere
+        own = parsed.tetrahedra() if parsed is not None else None
+        if own is not None:  # MSH 4.1 ASCII, the original's meshes: no meshio import
+            points, tets = own
+            return _checked_tet_mesh(check_points(points, path, line),
+                                     check_indices(tets, len(points), path, line, "tet"),
+                                     path, line)
         mesh = _meshio_read(path, line, fmt)
         blocks = [c.data for c in mesh.cells if c.type == "tetra"]
         if not blocks:
@@ -144,9 +155,22 @@ def read_tet_mesh(path, line: int | None = None) -> tuple[np.ndarray, np.ndarray
         points = check_points(mesh.points, path, line)
         tets = check_indices(np.concatenate(blocks).astype(np.int64), len(points), path, line,
                              "tet")
+    return _checked_tet_mesh(points, tets, path, line)
+
+
+def _checked_tet_mesh(points, tets, path, line) -> tuple[np.ndarray, np.ndarray]:
     points, tets = _drop_unreferenced(points, tets)
     check_tet_mesh(points, tets, path, line)
     return points, np.ascontiguousarray(tets, dtype=np.int64)
+
+
+def _gmsh_text(path: Path) -> GmshText | None:
+    """The file as an ASCII Gmsh file (``gmsh.parse``); None when it cannot be read here."""
+    try:
+        text = path.read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return None  # meshio's reader reports why
+    return parse_gmsh(text)
 
 
 def _tokens(path: Path, line) -> np.ndarray:

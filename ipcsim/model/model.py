@@ -17,6 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .surface import index_set
+
 INF = math.inf
 GRAVITY = (0.0, -9.80665, 0.0)  # m/s², y up, as the original
 
@@ -57,7 +59,7 @@ class Release:
     above: float
 
     def __post_init__(self):
-        object.__setattr__(self, "vertices", np.unique(np.asarray(self.vertices, dtype=np.int64)))
+        object.__setattr__(self, "vertices", index_set(self.vertices))
         object.__setattr__(self, "axis", int(self.axis))
         object.__setattr__(self, "above", float(self.above))
         _freeze(self, ("vertices",))
@@ -83,7 +85,7 @@ class DirichletSet:
     release: Release | None = None  # inactive at steps that start with it met
 
     def __post_init__(self):
-        object.__setattr__(self, "vertices", np.unique(np.asarray(self.vertices, dtype=np.int64)))
+        object.__setattr__(self, "vertices", index_set(self.vertices))
         object.__setattr__(self, "linear_velocity", _vec3(self.linear_velocity))
         object.__setattr__(self, "angular_velocity", _vec3(self.angular_velocity))
         object.__setattr__(self, "time_range", _window(self.time_range))
@@ -115,7 +117,7 @@ class NeumannSet:
     source: str = ""
 
     def __post_init__(self):
-        object.__setattr__(self, "vertices", np.unique(np.asarray(self.vertices, dtype=np.int64)))
+        object.__setattr__(self, "vertices", index_set(self.vertices))
         object.__setattr__(self, "acceleration", _vec3(self.acceleration))
         object.__setattr__(self, "time_range", _window(self.time_range))
         _freeze(self, ("vertices",))

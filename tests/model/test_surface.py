@@ -8,7 +8,8 @@ import pytest
 from ipcsim.model.generate import box_tet_mesh
 from ipcsim.model.mesh_io import read_tet_mesh
 from ipcsim.model.surface import (boundary_triangles, edge_use_counts, enclosed_volume,
-                                  tet_signed_volumes, unique_edges, unique_undirected)
+                                  index_set, tet_signed_volumes, unique_edges,
+                                  unique_undirected)
 
 
 def _canonical(tris: np.ndarray) -> np.ndarray:
@@ -91,3 +92,11 @@ def test_example_meshes_match_their_surface_block(ipc_examples):
         assert np.all(edge_use_counts(tris)[1] == 2), path.name
         assert enclosed_volume(points, tris) == pytest.approx(
             tet_signed_volumes(points, tets).sum(), rel=1e-9), path.name
+
+
+def test_index_set_is_numpys_unique():
+    rng = np.random.default_rng(3)
+    for a in (rng.integers(0, 50, size=(30, 4)), rng.integers(0, 5, size=200),
+              np.zeros((0, 3), np.int64), np.array([7]), np.array([-2, 5, -2, 0])):
+        got = index_set(a)
+        assert got.dtype == np.int64 and np.array_equal(got, np.unique(a))
