@@ -13,7 +13,6 @@ import math
 import os
 import platform
 import sys
-from importlib import metadata
 from pathlib import Path
 
 import numpy as np
@@ -71,11 +70,20 @@ def now_iso() -> str:
 
 
 def _version(dist: str) -> str | None:
-    # metadata instead of import: numba takes a while to import just for a version
-    try:
-        return metadata.version(dist)
-    except metadata.PackageNotFoundError:
-        return None
+    """The installed version of distribution ``dist``, from the name of its
+    ``<name>-<version>.dist-info`` folder on the import path (how installers name it,
+    PEP 427) without importing the package (numba takes seconds) or importlib.metadata
+    (25 ms with the email parser it loads, a tenth of a tiny scene's start)."""
+    prefix = dist.replace("-", "_").lower() + "-"
+    for entry in sys.path:
+        try:
+            names = os.listdir(entry or ".")
+        except OSError:
+            continue
+        for name in names:
+            if name.endswith(".dist-info") and name.lower().startswith(prefix):
+                return name[len(prefix):-len(".dist-info")]
+    return None
 
 
 def environment_info() -> dict:

@@ -20,7 +20,6 @@ import sys
 import time as _time
 import zlib
 from pathlib import Path
-from xml.etree import ElementTree
 from html import escape
 
 import numpy as np
@@ -339,6 +338,8 @@ def read_series(pvd_path: str | os.PathLike) -> list[tuple[float, Path]]:
 
     Paths are resolved relative to the ``.pvd`` file's folder. A file that is not a
     readable series is a :class:`FrameError`."""
+    from xml.etree import ElementTree  # reading runs back only: not on a run's start
+
     pvd_path = Path(pvd_path)
     try:
         root = ElementTree.parse(pvd_path).getroot()

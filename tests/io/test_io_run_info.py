@@ -85,3 +85,14 @@ def test_peak_memory_is_the_process_own_high_water_mark():
                                               capture_output=True, text=True).stdout.split())
     assert 1.0 < before < 150.0
     assert 190.0 < after - before < 260.0
+
+
+def test_versions_are_the_installed_distributions():
+    """Read from the dist-info folders' names: what importlib.metadata reads too."""
+    from importlib import metadata
+
+    from ipcsim.io.run_info import _version
+
+    for dist in ("numpy", "scipy", "meshio", "tomli-w"):
+        assert _version(dist) == metadata.version(dist)
+    assert _version("no-such-distribution") is None
