@@ -81,6 +81,7 @@ class Jit:
         self.options = options
         self._dispatcher = None
         self.compiled = aot.compiled_entry(py_func)  # argument types -> compiled function
+        self.match = aot.matcher(self.compiled)  # args -> its compiled function, or None
         functools.update_wrapper(self, py_func)
 
     def dispatcher(self):
@@ -93,10 +94,9 @@ class Jit:
         return self._dispatcher
 
     def __call__(self, *args):
-        if self.compiled is not None:
-            run = self.compiled.get(aot.argument_types(args))
-            if run is not None:
-                return run(*args)
+        run = self.match(args)
+        if run is not None:
+            return run(*args)
         aot.note_jit_call(self.py_func, args)
         return self.dispatcher()(*args)
 

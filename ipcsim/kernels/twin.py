@@ -39,6 +39,7 @@ class Kernel:
         self.options = options
         self._variants = {}
         self.compiled = aot.compiled_entry(py_func)  # serial variant's, by argument types
+        self.match = aot.matcher(self.compiled)  # args -> its compiled function, or None
         functools.update_wrapper(self, py_func)
 
     def variant(self, parallel: bool):
@@ -56,8 +57,8 @@ class Kernel:
 
     def __call__(self, *args):
         parallel = _mode["parallel"]
-        if not parallel and self.compiled is not None:
-            run = self.compiled.get(aot.argument_types(args))
+        if not parallel:
+            run = self.match(args)
             if run is not None:
                 return run(*args)
         aot.note_jit_call(self.py_func, args)

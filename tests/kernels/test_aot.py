@@ -52,6 +52,75 @@ def test_argument_types_are_keyed_as_numba_types_them(value, key):
         assert _numba_type(key) == typeof(value)
 
 
+def _value_of(key, rng):
+    """An argument whose key is ``key``."""
+    if isinstance(key, tuple) and len(key) == 2 and isinstance(key[1], int):
+        dtype, ndim = key
+        return np.zeros((2,) * ndim, dtype=dtype)
+    if isinstance(key, tuple):
+        return tuple(_value_of(k, rng) for k in key)
+    return {"float64": float(rng.random()), "int64": int(rng.integers(9)), "bool": True,
+            "float32": np.float32(1), "int32": np.int32(1), "uint8": np.uint8(1),
+            "int8": np.int8(1)}[key]
+
+
+def _near_misses(args):
+    """The arguments with one of them changed as a call might change it: another
+    dtype, read-only, strided, Fortran-ordered, a Python int for a float, one more or
+    one fewer argument, a tuple one item short, numpy scalars for Python ones."""
+    yield args + (1.0,)
+    yield args[:-1]
+    for i, a in enumerate(args):
+        for b in _variants(a):
+            yield args[:i] + (b,) + args[i + 1:]
+
+
+def _variants(a):
+    if isinstance(a, np.ndarray):
+        yield a.astype(np.float32 if a.dtype == np.float64 else np.float64)
+        readonly = a.copy()
+        readonly.flags.writeable = False
+        yield readonly
+        if a.ndim:
+            yield np.repeat(a, 2, axis=0)[::2]
+        if a.ndim == 2:
+            yield np.asfortranarray(np.zeros((2, 3), a.dtype))
+        yield a.reshape(-1) if a.ndim > 1 else a.reshape(1, -1)
+    elif isinstance(a, tuple):
+        yield a[:-1]
+        yield list(a)
+        for i, item in enumerate(a):
+            for b in _variants(item):
+                yield a[:i] + (b,) + a[i + 1:]
+    else:
+        yield np.float64(a) if isinstance(a, float) else np.int64(a) \
+            if isinstance(a, int) and not isinstance(a, bool) else np.bool_(a)
+        yield 1 if isinstance(a, float) else 1.0
+        yield None
+
+
+def test_the_generated_matcher_answers_as_the_keyed_lookup():
+    """On every signature of the table, with all of them compiled into one entry table
+    per kernel: exact arguments match their own function, and every near miss gets
+    exactly what ``entries.get(argument_types(args))`` gives (mostly None)."""
+    rng = np.random.default_rng(5)
+    kernels = {}
+    for module, function, key in aot.read_table():
+        kernels.setdefault((module, function), {})[key] = object()
+    checked = 0
+    for entries in kernels.values():
+        match = aot.matcher(entries)
+        for key, function in entries.items():
+            args = tuple(_value_of(k, rng) for k in key)
+            assert aot.argument_types(args) == key
+            assert match(args) is function
+            for other in _near_misses(args):
+                assert match(other) is entries.get(aot.argument_types(other))
+                checked += 1
+    assert checked > 1000
+    assert aot.matcher(None)((np.zeros(3),)) is None
+
+
 def test_every_table_line_reads_back_as_written():
     lines = [line for line in aot.TABLE.read_text(encoding="utf-8").splitlines()
              if line and not line.startswith("#")]
