@@ -37,21 +37,9 @@ def find_candidates(mesh: CollisionMesh, x, inflation: float, *, x1=None,
         raise ValueError(f"positions have {x0.shape[0]} vertices, the mesh {mesh.n_vertices}")
     if not inflation >= 0.0:
         raise ValueError("inflation must be >= 0")
-    r = float(inflation)
-    points = mesh.vertices.reshape(-1, 1)
-    point_tags, edge_tags, tri_tags = mesh.tags
-    point_boxes = _bp.primitive_boxes(x0, xs, points, r)
-    edge_boxes = _bp.primitive_boxes(x0, xs, mesh.edges, r)
-    tri_boxes = _bp.primitive_boxes(x0, xs, mesh.triangles, r)
-
-    tri_tree = _bp.build_bvh(tri_boxes) + (mesh.triangles, tri_tags)
-    pt_index = _bp.query_bvh((point_boxes, points, point_tags), tri_tree, False,
-                             mesh.self_collision)
-    edge_tree = _bp.build_bvh(edge_boxes) + (mesh.edges, edge_tags)
-    ee_index = _bp.query_bvh((edge_boxes, mesh.edges, edge_tags), edge_tree, True,
-                             mesh.self_collision)
-    pt_pairs = _bp.gather_rows(points, mesh.triangles, pt_index)
-    ee_pairs = _bp.gather_rows(mesh.edges, mesh.edges, ee_index)
+    pt_pairs, ee_pairs, pt_index, ee_index = _bp.candidate_pairs(
+        x0, xs, mesh.vertices.reshape(-1, 1), mesh.edges, mesh.triangles, mesh.tags,
+        float(inflation), mesh.self_collision)
     if return_indices:
         return pt_pairs, ee_pairs, pt_index, ee_index
     return pt_pairs, ee_pairs

@@ -329,6 +329,30 @@ def query_bvh(query, tree, same_set, self_collision):
     return out
 
 
+@kernel()
+def candidate_pairs(x0, x1, points, edges, triangles, tags, inflation, self_collision):
+    """Every kept point-triangle and edge-edge pair of one mesh whose boxes over ``x0``
+    and ``x1``, grown by ``inflation / 2``, overlap: ``(pt_rows, ee_rows, pt_index,
+    ee_index)``, stencil rows (p, t0, t1, t2) and (ea0, ea1, eb0, eb1) with the
+    (point, triangle) and (edge a, edge b) index pairs they come from. ``points (n, 1)``,
+    ``tags = (point, edge, triangle tags)``. One call from Python for the boxes, both
+    trees, both queries and the rows (nine calls apart: most of a small mesh's time)."""
+    point_tags, edge_tags, tri_tags = tags
+    point_boxes = primitive_boxes(x0, x1, points, inflation)
+    edge_boxes = primitive_boxes(x0, x1, edges, inflation)
+    tri_boxes = primitive_boxes(x0, x1, triangles, inflation)
+    nodes, leaf_boxes, order, last_slot = build_bvh(tri_boxes)
+    pt_index = query_bvh((point_boxes, points, point_tags),
+                         (nodes, leaf_boxes, order, last_slot, triangles, tri_tags),
+                         False, self_collision)
+    nodes, leaf_boxes, order, last_slot = build_bvh(edge_boxes)
+    ee_index = query_bvh((edge_boxes, edges, edge_tags),
+                         (nodes, leaf_boxes, order, last_slot, edges, edge_tags),
+                         True, self_collision)
+    return (gather_rows(points, triangles, pt_index), gather_rows(edges, edges, ee_index),
+            pt_index, ee_index)
+
+
 @njit(cache=True)
 def primitive_tags(prims, body_of_vertex, kinematic_vertex):
     """Tags ``(m, 2) = [body id, kinematic]`` of ``prims (m, k)``: the body of the first vertex,
