@@ -246,7 +246,7 @@ def _open_output(run: _Run):
     from .io.csv_log import NewtonLog, StepLog
     from .io.output_folder import prepare_output_folder
     from .io.resume import remove_temporaries
-    from .io.vtk import FrameWriter
+    from .io.vtk import FrameWriter, frame_compression
     from .scene import save_scene
 
     model, out = run.model, run.out
@@ -256,7 +256,8 @@ def _open_output(run: _Run):
         prepare_output_folder(out, run.mode == "overwrite")
         save_scene(run.scene, out / "scene.toml")
     run.frames = FrameWriter(out, tets=model.tets, triangles=model.kinematic_surface_triangles,
-                             body_id=model.vertex_shape)
+                             body_id=model.vertex_shape,
+                             compression_level=frame_compression(model.n_vertices))
     run.frames.series_interval = SERIES_SECONDS
     if run.render:
         from .io.render import LiveRenderer

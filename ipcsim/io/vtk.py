@@ -66,6 +66,15 @@ def frame_file_name(index: int) -> str:
     return f"frame_{int(index):06d}.vtu"
 
 
+COMPRESS_FROM = 1000  # vertices: below, zlib's set-up (20 µs an array) costs more than it saves
+
+
+def frame_compression(n_vertices: int) -> int | None:
+    """The zlib level of a run's frames: 1, or None (uncompressed) below
+    ``COMPRESS_FROM`` vertices, where a frame is a few kilobytes either way."""
+    return None if n_vertices < COMPRESS_FROM else 1
+
+
 def frame_interval(dt: float, frame_dt: float = 0.01) -> int:
     """Steps between written frames: about one frame per ``frame_dt`` seconds of
     simulated time, never fewer than one frame per step."""

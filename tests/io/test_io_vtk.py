@@ -186,3 +186,18 @@ def test_frame_interval(dt, expected):
 def test_frame_interval_rejects_nonpositive_dt():
     with pytest.raises(ValueError):
         frame_interval(0.0)
+
+
+def test_a_runs_frames_are_compressed_from_a_thousand_vertices(repo_root, tmp_path):
+    """Small frames go uncompressed (zlib's set-up costs more than the bytes it saves),
+    larger ones compressed; both read back the same way."""
+    import ipcsim
+    from ipcsim.io.vtk import COMPRESS_FROM, frame_compression
+
+    assert frame_compression(COMPRESS_FROM - 1) is None and frame_compression(COMPRESS_FROM) == 1
+    spec = ipcsim.load_scene(repo_root / "input" / "cube_drop.toml", {"time.duration": 0.05})
+    result = ipcsim.run(spec, tmp_path / "run")
+    frame = sorted((tmp_path / "run" / "frames").glob("frame_*.vtu"))[-1]  # the last step's
+    assert ipcsim.build_model(spec).n_vertices < COMPRESS_FROM
+    assert "compressor" not in frame.read_text()[:400]
+    np.testing.assert_array_equal(meshio.read(frame).points, result.state.x)
