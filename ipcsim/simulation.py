@@ -108,6 +108,8 @@ class Simulation:
         # and the pull schedule's small step: the original's √(10⁻⁴ l² h²)
         self._pullable = (np.asarray(model.mass, dtype=float), ~model.obstacle_vertices)
         self._pull_step = 0.01 * model.bbox_diagonal * model.dt
+        # (x, collision set at x) of the last step's last iterate: the next one starts there
+        self._collisions_at = None
         # the SQP / QP baselines minimise the step with contact as constraints
         self.constrained = None
         if model.constraint_solver is not None:
@@ -129,6 +131,7 @@ class Simulation:
         if checkpoint["x"].shape != (n, 3):
             raise ValueError(f"checkpoint has {len(checkpoint['x'])} vertices, the scene {n}")
         dx = checkpoint["dx_elastic"]
+        self._collisions_at = None  # found afresh where the checkpoint starts
         self.state = State(checkpoint["x"].copy(), checkpoint["v"].copy(),
                            checkpoint["a"].copy(), checkpoint["step"], checkpoint["kappa"],
                            None if dx is None else dx.copy(), checkpoint["step"] * self.h)
@@ -162,6 +165,7 @@ class Simulation:
         if not np.all(np.isfinite(result.x)):
             raise SolverError("positions became non-finite")
         self.state = self.advance(before, result.x, objective)
+        self._collisions_at = objective.kept_collisions  # the next step starts at x
         rows = tuple({**r, "step": self.state.step} for r in result.rows)
         notes = ()
         if self.constrained is not None:
@@ -191,7 +195,8 @@ class Simulation:
                           target=target, dhat=model.dhat, damping=damping)
         stiffness = dataclasses.replace(self.stiffness, kappa=state.kappa).new_step()
         objective = StepObjective(self.potential, ctx, self.contact, stiffness, self.timer,
-                                  pullable=self._pullable, small_step=self._pull_step)
+                                  pullable=self._pullable, small_step=self._pull_step,
+                                  collisions_at=self._collisions_at)
         if self.potential.term("friction") is not None:
             objective.lag_friction(x)
         return objective

@@ -98,6 +98,29 @@ def test_killed_interrupted_and_resumed_run_equals_an_uninterrupted_one(stacked_
     assert np.array_equal(newton["kappa"], ref_newton["kappa"])
 
 
+def test_a_run_resumed_at_any_of_its_contact_steps_equals_the_uninterrupted_one(
+        stacked_cubes, tmp_path):
+    """Bit for bit, at fixed steps in mesh contact: the resumed run queries its first
+    collision set afresh where the uninterrupted one takes the set its last step ended
+    with, and both sets are in canonical order."""
+    steps = 40
+    reference = tmp_path / "reference"
+    assert main(["run", str(stacked_cubes), "-o", str(reference), "-q", "--steps",
+                 str(steps)]) == 0
+    ref_steps = read_csv(reference / "steps.csv")
+    _, x_ref = _final_positions(reference)
+    for k in (12, 24, 33):
+        assert ref_steps["contacts_point_triangle"][k] > 0  # step k + 1 starts in contact
+        out = tmp_path / f"resumed_at_{k}"
+        assert main(["run", str(stacked_cubes), "-o", str(out), "-q", "--steps", str(k)]) == 0
+        assert main(["run", str(stacked_cubes), "-o", str(out), "-q", "--steps", str(steps),
+                     "--resume"]) == 0
+        _, x = _final_positions(out)
+        assert np.array_equal(x, x_ref), k
+        assert np.array_equal(read_csv(out / "newton.csv")["kappa"],
+                              read_csv(reference / "newton.csv")["kappa"])
+
+
 def test_sigterm_stops_after_the_current_step_like_ctrl_c(stacked_cubes, tmp_path):
     """A scheduler's SIGTERM is a request to stop: the step finishes, run.json records
     the interruption, exit status 130, and --resume finishes the run."""

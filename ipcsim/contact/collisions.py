@@ -44,18 +44,22 @@ class MeshContactCount:
 @dataclass(frozen=True, eq=False)
 class Collisions:
     """Candidate pairs (rows of global vertex numbers): pt (k, 4) = (p, t0, t1, t2),
-    ee (j, 4) = (ea0, ea1, eb0, eb1), with ee_eps_x (j,) their mollifier thresholds, and
-    the distances at the positions they were found at (None for a swept set)."""
+    ee (j, 4) = (ea0, ea1, eb0, eb1), with ee_eps_x (j,) their mollifier thresholds, the
+    distances at the positions they were found at (None for a swept set) and each pair's
+    id in its mesh (``pair_ids``; None where the pairs came from elsewhere)."""
 
     pt: np.ndarray
     ee: np.ndarray
     ee_eps_x: np.ndarray
     distances: PairDistances | None = None
+    pt_id: np.ndarray | None = None
+    ee_id: np.ndarray | None = None
 
     @staticmethod
     def empty() -> "Collisions":
         z = np.zeros((0, 4), dtype=np.int64)
-        return Collisions(z, z, np.zeros(0))
+        return Collisions(z, z, np.zeros(0), None, np.zeros(0, np.int64),
+                          np.zeros(0, np.int64))
 
     def __len__(self) -> int:
         return len(self.pt) + len(self.ee)
@@ -87,7 +91,40 @@ class Collisions:
         of a set found over a longer motion."""
         keep_pt = swept_pairs_within(x0, x1, self.pt, 1, dhat)
         keep_ee = swept_pairs_within(x0, x1, self.ee, 2, dhat)
-        return Collisions(self.pt[keep_pt], self.ee[keep_ee], self.ee_eps_x[keep_ee])
+        return Collisions(self.pt[keep_pt], self.ee[keep_ee], self.ee_eps_x[keep_ee], None,
+                          _kept(self.pt_id, keep_pt), _kept(self.ee_id, keep_ee))
+
+    def in_canonical_order(self) -> "Collisions":
+        """The same pairs, each kind by increasing id (by row where there are no ids): a
+        set found by a fresh query and one narrowed from a sweep then sum the barrier
+        in the same order, bit for bit (how a step hands its end's set to the next)."""
+        pt_order = _order(self.pt_id, self.pt)
+        ee_order = _order(self.ee_id, self.ee)
+        d = self.distances
+        if d is not None:
+            d = PairDistances(d.pt_type[pt_order], d.pt_d2[pt_order], d.ee_type[ee_order],
+                              d.ee_d2[ee_order])
+        return Collisions(self.pt[pt_order], self.ee[ee_order], self.ee_eps_x[ee_order], d,
+                          _kept(self.pt_id, pt_order), _kept(self.ee_id, ee_order))
+
+
+def _kept(ids: np.ndarray | None, which: np.ndarray) -> np.ndarray | None:
+    return None if ids is None else ids[which]
+
+
+def _order(ids: np.ndarray | None, rows: np.ndarray) -> np.ndarray:
+    """The permutation that sorts pairs by id, or by row (lexicographic) without ids."""
+    if ids is not None:
+        return np.argsort(ids, kind="stable")
+    return np.lexsort(rows.T[::-1])
+
+
+def pair_ids(mesh: CollisionMesh, pt_index: np.ndarray, ee_index: np.ndarray):
+    """One int64 per candidate pair, unique in the mesh: point·n_triangles + triangle for
+    (point, triangle), edge_a·n_edges + edge_b for (edge a, edge b)."""
+    n_tri, n_edges = len(mesh.triangles), len(mesh.edges)
+    return (pt_index[:, 0] * n_tri + pt_index[:, 1],
+            ee_index[:, 0] * n_edges + ee_index[:, 1])
 
 
 def _mollifier_thresholds(mesh: CollisionMesh, ee) -> np.ndarray:
@@ -96,9 +133,10 @@ def _mollifier_thresholds(mesh: CollisionMesh, ee) -> np.ndarray:
 
 def build_collisions(mesh: CollisionMesh, x: np.ndarray, dhat: float) -> Collisions:
     """Every pair of ``mesh`` that may be closer than d̂ at x, with its distance at x."""
-    pt, ee = find_candidates(mesh, x, dhat)
+    pt, ee, pt_index, ee_index = find_candidates(mesh, x, dhat, return_indices=True)
     distances = PairDistances(*classify_and_distance(x, pt, ee))
-    return Collisions(pt, ee, _mollifier_thresholds(mesh, ee), distances)
+    return Collisions(pt, ee, _mollifier_thresholds(mesh, ee), distances,
+                      *pair_ids(mesh, pt_index, ee_index))
 
 
 def narrowed_collisions(swept: Collisions, x: np.ndarray, dhat: float) -> Collisions:
@@ -110,14 +148,16 @@ def narrowed_collisions(swept: Collisions, x: np.ndarray, dhat: float) -> Collis
     the pairs may differ from a fresh query's."""
     near = swept.within_motion(x, x, dhat)
     return Collisions(near.pt, near.ee, near.ee_eps_x,
-                      PairDistances(*classify_and_distance(x, near.pt, near.ee)))
+                      PairDistances(*classify_and_distance(x, near.pt, near.ee)),
+                      near.pt_id, near.ee_id)
 
 
 def swept_collisions(mesh: CollisionMesh, x0: np.ndarray, x1: np.ndarray,
                      dhat: float) -> Collisions:
     """Every pair that may come within d̂ while the vertices move linearly x0 -> x1."""
-    pt, ee = find_candidates(mesh, x0, dhat, x1=x1)
-    return Collisions(pt, ee, _mollifier_thresholds(mesh, ee))
+    pt, ee, pt_index, ee_index = find_candidates(mesh, x0, dhat, x1=x1, return_indices=True)
+    return Collisions(pt, ee, _mollifier_thresholds(mesh, ee), None,
+                      *pair_ids(mesh, pt_index, ee_index))
 
 
 def pair_distances(x: np.ndarray, collisions: Collisions) -> PairDistances:

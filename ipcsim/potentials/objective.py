@@ -20,7 +20,11 @@ Its state is explicit: the step's ``StepContext`` (replaced, never written to), 
 (``contact.ccd.line_search_bound`` starts from it) and ``revision``, which counts the
 changes of the potential itself (a pull started, tightened or ended: energies from
 before are not comparable). The collision set of the last evaluated x is kept for a
-repeat call at equal positions (compared by value).
+repeat call at equal positions (compared by value), and handed to the next step, which
+starts where this one ended (``kept_collisions``): a step's first set is then narrowed
+from its last line search instead of queried again. Sets at a step's start are in
+canonical order (by pair id), so that a run resumed from a checkpoint, which queries
+its first set afresh, sums the barrier exactly as the uninterrupted run did.
 """
 
 from __future__ import annotations
@@ -113,10 +117,12 @@ class StepObjective:
     def __init__(self, potential: IncrementalPotential, ctx: StepContext,
                  contact: ContactSetup, stiffness: BarrierStiffness, timer,
                  pullable: tuple[np.ndarray, np.ndarray] | None = None,
-                 small_step: float = 0.0):
+                 small_step: float = 0.0,
+                 collisions_at: tuple[np.ndarray, Collisions] | None = None):
         """``pullable``: (mass (n,), mask (n,) of the vertices of bodies: what a pull may
         take of the prescribed vertices), None for no pull; ``small_step``: the pull
-        schedule's ‖p‖∞ (``PullSchedule``)."""
+        schedule's ‖p‖∞ (``PullSchedule``); ``collisions_at``: (x, the collision set at x
+        in canonical order) known already: the last step's ``kept_collisions``."""
         self.potential = self._base_potential = potential
         self.ctx = ctx
         self.contact = contact
@@ -129,7 +135,7 @@ class StepObjective:
         self._schedule: PullSchedule | None = None
         self.revision = 0
         self.last_ccd_alpha = 1.0  # CCD's α at this step's previous line search
-        self._collisions_at: tuple[np.ndarray, Collisions] | None = None
+        self._collisions_at = collisions_at
         # (y, swept set): the last point Newton took along a line search, and its pairs
         self._on_segment: tuple[np.ndarray, Collisions | None] | None = None
 
@@ -248,6 +254,15 @@ class StepObjective:
                           else IncrementalPotential(terms + (WeightedTerm(pull),)))
         self.revision += 1
 
+    @property
+    def kept_collisions(self) -> tuple[np.ndarray, Collisions] | None:
+        """(x, the collision set at x) of the last x evaluated, in canonical order: the
+        start of the next step."""
+        kept = self._collisions_at
+        if kept is None or kept[1] is None:
+            return None
+        return kept[0], kept[1].in_canonical_order()
+
     def took(self, y: np.ndarray, swept: Collisions | None) -> None:
         """Newton takes y, a point of a line search that swept the pairs ``swept``."""
         self._on_segment = (y, swept)
@@ -265,6 +280,8 @@ class StepObjective:
             self._on_segment = None  # its one use: the swept pairs go before the next sweep
         else:
             collisions = build_collisions(self.contact.mesh, x, self.contact.dhat)
+            if np.array_equal(x, self.ctx.x_start):  # as a step's start is handed over
+                collisions = collisions.in_canonical_order()
         self._collisions_at = (x.copy(), collisions)
         return collisions
 

@@ -158,3 +158,66 @@ def test_the_set_at_a_prescribed_motions_end_is_narrowed_from_the_sweep(tmp_path
     at_ends = [n for x, n in narrowed if any(x is y for y in ends)]
     assert len(ends) >= 4 and len(at_ends) == len(ends)  # every end was narrowed
     assert sum(at_ends) > 0  # and pairs were within d̂ there
+
+def test_a_step_starts_with_the_collision_set_the_last_one_ended_with(tmp_path, monkeypatch):
+    """Each step starts where the last one ended: its first collision set is the one
+    the last step found there (no broad phase at the step's start), and the run is the
+    same bit for bit as one that queries it again."""
+    import ipcsim
+    import ipcsim.potentials.objective as objective_module
+    from generated import write_box_msh
+
+    write_box_msh(tmp_path / "box.msh")
+    (tmp_path / "scene.txt").write_text(
+        "shapes input 2\nbox.msh 0 0 0  0 0 0  1 1 1\nbox.msh 0.03 0.2025 0.01  0 0 0  1 1 1\n"
+        "dHatAbs 0.004\ntime 0.05 0.01\n")
+    queried = []
+    build = objective_module.build_collisions
+
+    def counting(mesh, x, dhat):
+        queried.append(x.copy())
+        return build(mesh, x, dhat)
+
+    monkeypatch.setattr(objective_module, "build_collisions", counting)
+    spec = load_scene(tmp_path / "scene.txt")
+    ipcsim.run(spec, tmp_path / "kept", steps=5)
+    kept_queries = list(queried)
+    ends = np.load(tmp_path / "kept" / "checkpoint.npz")["x"]
+
+    queried.clear()
+    monkeypatch.setattr(objective_module.StepObjective, "kept_collisions", property(
+        lambda self: None))  # no hand-over: each step queries its start again
+    ipcsim.run(spec, tmp_path / "fresh", steps=5)
+    assert len(queried) == len(kept_queries) + 4  # one per step but the first
+    np.testing.assert_array_equal(np.load(tmp_path / "fresh" / "checkpoint.npz")["x"], ends)
+    contacts = np.genfromtxt(tmp_path / "kept" / "steps.csv", delimiter=",", names=True)
+    assert contacts["contacts_total"].max() > 0  # sets with pairs were handed over
+
+
+def test_a_narrowed_set_in_canonical_order_is_the_fresh_query_in_canonical_order():
+    """The same pairs, ids and distances, row for row, whether the set at x came from a
+    BVH query at x or from a sweep through x."""
+    from ipcsim.model.surface import boundary_triangles, unique_edges
+
+    points, tets = box_tet_mesh(3, 3, 3)
+    top = points + [0.1, 1.0005, 0.05]  # a second box just above the first
+    x = np.concatenate([points, top])
+    tris = boundary_triangles(tets)
+    triangles = np.concatenate([tris, tris + len(points)])
+    mesh = CollisionMesh.of(len(x), np.arange(len(x)), unique_edges(triangles), triangles,
+                            body=np.repeat([0, 1], len(points)), rest=x.copy())
+    p = np.zeros_like(x)
+    p[len(points):] = [0.0014, 0.0033, 0.0013]  # the top box sweeps through x, off-centre
+    dhat = 0.002
+    fresh = build_collisions(mesh, x, dhat)
+    narrowed = narrowed_collisions(swept_collisions(mesh, x - 3 * p, x + p, dhat), x, dhat)
+    assert not (np.array_equal(fresh.pt, narrowed.pt)  # the same pairs in another order
+                and np.array_equal(fresh.ee, narrowed.ee))
+    fresh, narrowed = fresh.in_canonical_order(), narrowed.in_canonical_order()
+    assert len(fresh) > 20 and len(fresh.pt) and len(fresh.ee)
+    for name in ("pt", "ee", "ee_eps_x", "pt_id", "ee_id"):
+        np.testing.assert_array_equal(getattr(fresh, name), getattr(narrowed, name))
+    for name in ("pt_type", "pt_d2", "ee_type", "ee_d2"):
+        np.testing.assert_array_equal(getattr(fresh.distances, name),
+                                      getattr(narrowed.distances, name))
+    assert (np.diff(fresh.pt_id) > 0).all() and (np.diff(fresh.ee_id) > 0).all()
