@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -157,6 +160,27 @@ def test_cholmod_orderings_and_factor_kinds(ordering, supernodal):
     assert rel_residual(A, solver.solve(A, b), b) < 1e-10
     with pytest.raises(ValueError):
         linear.CholmodSolver(ordering="colamd")
+
+
+def test_auto_ordering_is_amd_for_small_matrices_and_metis_from_its_threshold():
+    """Small systems never import pymetis (25 ms of a tiny scene's start); large ones
+    are ordered by METIS where it is installed, and both solve."""
+    require("cholmod")
+    pytest.importorskip("pymetis")
+    solver = linear.CholmodSolver()
+    assert solver.ordering == "auto"
+    assert solver._ordering_for(linear.CholmodSolver.METIS_FROM - 1) == "amd"
+    assert solver._ordering_for(linear.CholmodSolver.METIS_FROM) == "metis"
+    code = ("import sys, numpy as np, scipy.sparse as sp; from ipcsim.solver import linear; "
+            "A = sp.identity(300, format='csc') * 2.0; "
+            "x = linear.CholmodSolver().solve(A, np.ones(300)); "
+            "print(round(float(x[0]), 12), 'pymetis' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.split()
+    assert out == ["0.5", "False"]
+    A = block_spd(linear.CholmodSolver.METIS_FROM // 3 + 1, seed=4)
+    b = np.random.default_rng(5).standard_normal(A.shape[0])
+    assert rel_residual(A, solver.solve(A, b), b) < 1e-10
 
 
 @pytest.mark.parametrize("n", [2, 3, 299, 300, 301])
