@@ -245,9 +245,12 @@ class CholmodSolver(_Factorising):
 
         opts = self._cholmod.options  # module-wide: set what we rely on before every call
         opts["supernodal"] = 2 if self.supernodal else 0
+        perm = None
         if self._ordering_for(self._pattern.n) == "metis":
             pat = self._pattern
+            # None where pymetis is found but does not import: AMD then
             perm = group_nested_dissection(pat.indptr_full, pat.indices_full, pat.n)
+        if perm is not None:
             opts["nmethods"] = 1  # use the given ordering, do not also try AMD
             self._factor = self._cholmod.symbolic(self._K, p=matrix(perm))
         else:
