@@ -115,7 +115,7 @@ def _kept(ids: np.ndarray | None, which: np.ndarray) -> np.ndarray | None:
 def _order(ids: np.ndarray | None, rows: np.ndarray) -> np.ndarray:
     """The permutation that sorts pairs by id, or by row (lexicographic) without ids."""
     if ids is not None:
-        return np.argsort(ids, kind="stable")
+        return np.argsort(ids)  # ids are unique: any sort gives the one order
     return np.lexsort(rows.T[::-1])
 
 
