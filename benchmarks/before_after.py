@@ -26,6 +26,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from benchmarks.vs_original import ipcsim_env
+
 FIELDS = ("scene", "build", "runs", "wall_s", "wall_min_s", "wall_max_s", "steps_s",
           "newton_iterations", "peak_memory_mb")
 
@@ -44,10 +46,9 @@ def run_once(command: str, scene: Path, out: Path, steps: int | None, threads: i
     args = [command, "run", str(scene), "-o", str(out), "-q", "--overwrite"]
     if steps is not None:
         args += ["--steps", str(steps)]
-    env = {**os.environ, "IPCSIM_THREADS": str(threads)}
     start = time.perf_counter()
-    done = subprocess.run(args, cwd=_scene_root(scene), env=env, capture_output=True,
-                          text=True)
+    done = subprocess.run(args, cwd=_scene_root(scene), env=ipcsim_env(threads),
+                          capture_output=True, text=True)
     wall = time.perf_counter() - start
     if done.returncode != 0:
         raise RuntimeError(f"{command} on {scene} exited {done.returncode}: "

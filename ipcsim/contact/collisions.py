@@ -95,28 +95,22 @@ class Collisions:
                           _kept(self.pt_id, keep_pt), _kept(self.ee_id, keep_ee))
 
     def in_canonical_order(self) -> "Collisions":
-        """The same pairs, each kind by increasing id (by row where there are no ids): a
-        set found by a fresh query and one narrowed from a sweep then sum the barrier
-        in the same order, bit for bit (how a step hands its end's set to the next)."""
-        pt_order = _order(self.pt_id, self.pt)
-        ee_order = _order(self.ee_id, self.ee)
+        """The same pairs, each kind by increasing id (every set this module builds has
+        ids): a set found by a fresh query and one narrowed from a sweep then sum the
+        barrier in the same order, bit for bit (how a step hands its end's set to the
+        next). The ids are unique, so any sort gives the one order."""
+        pt_order = np.argsort(self.pt_id)
+        ee_order = np.argsort(self.ee_id)
         d = self.distances
         if d is not None:
             d = PairDistances(d.pt_type[pt_order], d.pt_d2[pt_order], d.ee_type[ee_order],
                               d.ee_d2[ee_order])
         return Collisions(self.pt[pt_order], self.ee[ee_order], self.ee_eps_x[ee_order], d,
-                          _kept(self.pt_id, pt_order), _kept(self.ee_id, ee_order))
+                          self.pt_id[pt_order], self.ee_id[ee_order])
 
 
 def _kept(ids: np.ndarray | None, which: np.ndarray) -> np.ndarray | None:
     return None if ids is None else ids[which]
-
-
-def _order(ids: np.ndarray | None, rows: np.ndarray) -> np.ndarray:
-    """The permutation that sorts pairs by id, or by row (lexicographic) without ids."""
-    if ids is not None:
-        return np.argsort(ids)  # ids are unique: any sort gives the one order
-    return np.lexsort(rows.T[::-1])
 
 
 def pair_ids(mesh: CollisionMesh, pt_index: np.ndarray, ee_index: np.ndarray):

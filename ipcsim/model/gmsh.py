@@ -7,7 +7,7 @@ Two uses:
   meshio maps a tag that names no node onto some other node;
 * ``read_tet_mesh`` takes points and tets of an MSH 4.1 ASCII file from here instead of
   from meshio, whose import (every format it knows and its command line) costs about
-  40 ms, a tenth of a tiny scene's whole run. What this reader does not take on — MSH
+  40 ms, 5 % of a tiny scene's whole run. What this reader does not take on — MSH
   2.2, binary files, parametric nodes, node tags other than 1..n in file order, a file
   without tetrahedra — goes to meshio, which reads such files the same way (tests
   compare the two on every example mesh).

@@ -130,10 +130,9 @@ def read_tet_mesh(path, line: int | None = None) -> tuple[np.ndarray, np.ndarray
         if fmt is None:
             raise _err(path, line, f"unsupported tet mesh format '{suffix}' "
                                    "(use .msh, .vtk, .vtu or TetGen .node/.ele)")
-        parsed = None
-        if fmt == "gmsh":
-            parsed = _gmsh_text(path)
-            check_gmsh_tags(path, line, parsed)  # before meshio maps a bad tag elsewhere
+        parsed = _gmsh_text(path) if fmt == "gmsh" else None
+        if parsed is not None:  # ASCII Gmsh: its tags checked before meshio maps a bad
+            check_gmsh_tags(path, line, parsed)  # tag onto another node
         own = parsed.tetrahedra() if parsed is not None else None
         if own is not None:  # MSH 4.1 ASCII, the original's meshes: no meshio import
             points, tets = own

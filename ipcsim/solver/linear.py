@@ -196,8 +196,8 @@ class CholmodSolver(_Factorising):
 
     ``ordering``: "metis" (pymetis on the vertex graph), "amd" (CHOLMOD's own), or "auto"
     (metis from ``METIS_FROM`` DOFs up when pymetis is installed, else amd: below, both
-    order in microseconds and leave the same fill, and importing pymetis costs 25 ms, a
-    twentieth of a tiny scene's run). ``supernodal``: True for the supernodal LLᵀ
+    order in microseconds and leave the same fill, and importing pymetis costs 25 ms,
+    4 % of a tiny scene's run). ``supernodal``: True for the supernodal LLᵀ
     (BLAS-3, the fast one), False for the simplicial LDLᵀ (kept for measurements).
     """
 
