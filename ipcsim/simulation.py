@@ -14,7 +14,6 @@ rows) that the run command writes. The simulation writes nothing itself.
 
 from __future__ import annotations
 
-import dataclasses
 import time
 import warnings
 from dataclasses import dataclass
@@ -32,6 +31,7 @@ from .model.surface import index_set
 from .potentials.base import StepContext, Triplets
 from .potentials.objective import StepObjective
 from .potentials.terms import incremental_potential
+from .records import replaced
 from .solver.integrator import fix_kinematic_velocities, kinetic_energy, make_integrator
 from .solver.linear import make_solver
 from .solver.newton import NewtonResult, NewtonSolver
@@ -193,7 +193,7 @@ class Simulation:
             damping = damping.lag(x, self.potential.term("elasticity").hessian(x))
         ctx = StepContext(x_start=x, x_tilde=x_tilde, acceleration=accel, kinematic=kinematic,
                           target=target, dhat=model.dhat, damping=damping)
-        stiffness = dataclasses.replace(self.stiffness, kappa=state.kappa).new_step()
+        stiffness = replaced(self.stiffness, kappa=state.kappa).new_step()
         objective = StepObjective(self.potential, ctx, self.contact, stiffness, self.timer,
                                   pullable=self._pullable, small_step=self._pull_step,
                                   collisions_at=self._collisions_at)

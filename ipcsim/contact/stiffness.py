@@ -13,11 +13,12 @@ potential, both over free DOFs: κ balances the two forces. During Newton, κ do
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..kernels.barrier import barrier_second_derivative
+from ..records import replaced
 
 
 def kappa_bounds(bbox_diagonal: float, dhat: float, mean_mass: float,
@@ -60,7 +61,7 @@ class BarrierStiffness:
 
     def new_step(self) -> "BarrierStiffness":
         """The state at the start of a step: κ carried over, nothing balanced yet."""
-        return replace(self, balanced=not self.adaptive, min_distance_sq=math.inf)
+        return replaced(self, balanced=not self.adaptive, min_distance_sq=math.inf)
 
     def needs_balance(self, contacts: int) -> bool:
         return self.adaptive and contacts > 0 and not self.balanced
@@ -78,4 +79,4 @@ class BarrierStiffness:
         d_sq = min_distance * min_distance
         if should_double(self.min_distance_sq, d_sq, self.eps_sq):
             kappa = min(self.kappa_max, 2.0 * kappa)
-        return replace(self, kappa=kappa, balanced=balanced, min_distance_sq=d_sq)
+        return replaced(self, kappa=kappa, balanced=balanced, min_distance_sq=d_sq)

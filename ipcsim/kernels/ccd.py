@@ -264,6 +264,40 @@ def _advance_serial(x0, x1, stencils, n_pt, state, active, params):
         _advance_chunk(x0, x1, stencils, n_pt, state, active, params, c)
 
 
+@njit(cache=True)
+def _max_step_serial(x0, x1, stencils, n_pt, f, max_iterations):
+    # ccd_max_step's rounds on one thread in one call (a tiny scene sweeps its few pairs
+    # every Newton iteration: the rounds' array work in Python cost more than the queries)
+    n = stencils.shape[0]
+    state = np.empty((n, 5))
+    _init_serial(x0, x1, stencils, n_pt, state)
+    active = np.empty(n, dtype=np.int64)
+    alpha = 1.0
+    budget = 8
+    spent = 0
+    while True:
+        for k in range(n):
+            if state[k, _DONE] != 0.0 and state[k, _T] < alpha:
+                alpha = state[k, _T]
+        m = 0
+        for k in range(n):
+            if state[k, _DONE] == 0.0 and state[k, _T] < alpha:
+                active[m] = k
+                m += 1
+        if m == 0 or spent >= max_iterations:
+            break
+        n_iter = min(budget, max_iterations - spent)
+        for i in range(m):
+            k = active[i]
+            _advance_query(x0, x1, stencils, k, k < n_pt, state, alpha, n_iter, f)
+        spent += n_iter
+        budget *= 4
+    for k in range(n):
+        if state[k, _DONE] == 0.0 and state[k, _T] < alpha:
+            alpha = state[k, _T]
+    return alpha
+
+
 def _in_parallel(n_queries: int) -> bool:
     """Many queries on more than one thread (``twin.running_parallel``): a parallel launch
     costs more than a few queries do, and a serial run compiles no parallel variant."""
@@ -330,6 +364,14 @@ def ccd_max_step(x0, x1, pt_pairs, ee_pairs, min_gap_fraction=DEFAULT_MIN_GAP_FR
     if stencils.shape[0] == 0:
         return 1.0
     f = float(min_gap_fraction)
+    if not _in_parallel(stencils.shape[0]):
+        return _max_step_serial(x0, x1, stencils, n_pt, f, int(max_iterations))
+    return _max_step_rounds(x0, x1, stencils, n_pt, f, max_iterations)
+
+
+def _max_step_rounds(x0, x1, stencils, n_pt, f, max_iterations):
+    """ccd_max_step's rounds, each a kernel launch over the queries still running (the
+    parallel ones on many threads); ``_max_step_serial`` runs the same rounds in one call."""
     state = _init(x0, x1, stencils, n_pt)
     alpha = 1.0
     budget = 8

@@ -18,7 +18,6 @@ call (assembly keeps their sparsity pattern).
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable, ClassVar, Protocol
 
@@ -26,6 +25,7 @@ import numpy as np
 
 from ..kernels import assembly as ka
 from ..kernels.assembly import block_triplet_indices
+from ..records import replaced
 
 if TYPE_CHECKING:
     import scipy.sparse as sp
@@ -149,7 +149,7 @@ class BlockHessian:
         return self.vals if self.scale == 1.0 else self.scale * self.vals
 
     def scaled(self, w: float) -> "BlockHessian":
-        return self if w == 1.0 else dataclasses.replace(self, scale=self.scale * w)
+        return self if w == 1.0 else replaced(self, scale=self.scale * w)
 
     def tocsr(self, n_dofs: int) -> "sp.csr_matrix":
         return Triplets(*block_triplet_indices(self.stencils), self.values).tocsr(n_dofs)
@@ -218,11 +218,11 @@ class ElementHessian:
         return self.vals if self.scale == 1.0 else self.scale * self.vals
 
     def scaled(self, w: float) -> "ElementHessian":
-        return self if w == 1.0 else dataclasses.replace(self, scale=self.scale * w)
+        return self if w == 1.0 else replaced(self, scale=self.scale * w)
 
     def kept(self) -> "ElementHessian":
         """The same Hessian with its values evaluated now and kept (damping's, for a step)."""
-        return dataclasses.replace(self, element_values=_KeptValues(self.vals, self.block))
+        return replaced(self, element_values=_KeptValues(self.vals, self.block))
 
     def tocsr(self, n_dofs: int) -> "sp.csr_matrix":
         rows, cols = self.element_pattern(self.elements)
@@ -274,7 +274,7 @@ class LaggedDamping:
 class StepContext:
     """Everything the terms of one time step need beyond the positions x.
 
-    Built once per step by the simulation; a new one (``dataclasses.replace``) is made
+    Built once per step by the simulation; a new one (``records.replaced``) is made
     whenever the collision set or the friction lag change. Nothing here is ever written
     to after construction. A field a term does not read may be left out (None)."""
 

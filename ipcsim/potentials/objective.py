@@ -29,7 +29,6 @@ its first set afresh, sums the barrier exactly as the uninterrupted run did.
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,6 +38,7 @@ from ..contact.collisions import Collisions, build_collisions, narrowed_collisio
 from ..contact.friction_lag import FrictionLag, lag_friction
 from ..contact.setup import ContactCount, ContactSetup
 from ..contact.stiffness import BarrierStiffness
+from ..records import replaced
 from .base import StepContext, Triplets
 from .boundary_pull import BoundaryPull, PullSchedule
 from .incremental import IncrementalPotential, TermValues, WeightedTerm
@@ -60,7 +60,7 @@ class Evaluation:
     def without_hessian(self) -> "Evaluation":
         """The same evaluation without its Hessian (whose contact entries, in heavy
         contact, are more memory than anything else Newton holds), once assembled."""
-        return dataclasses.replace(self, hessian=None)
+        return replaced(self, hessian=None)
 
 
 @dataclass(frozen=True, eq=False)
@@ -159,14 +159,14 @@ class StepObjective:
         with self.timer("contact_set"):
             collisions = self.collisions(x)
             contacts = self.contact.count(x, collisions)
-        self.ctx = dataclasses.replace(self.ctx, collisions=collisions)
+        self.ctx = replaced(self.ctx, collisions=collisions)
         with self.timer("energy"):
             values = self.potential.evaluate(x, self.ctx, order)
         if order == 2 and adapt:
             self._adapt_stiffness(values, contacts)
         kappa = self.stiffness.kappa
         hessian = values.hessian(kappa) if order >= 2 else None
-        values = dataclasses.replace(values, hessians=None)  # held by ``hessian`` alone
+        values = replaced(values, hessians=None)  # held by ``hessian`` alone
         return Evaluation(x, values, kappa, contacts, values.energy(kappa),
                           values.gradient(kappa) if order >= 1 else None, hessian)
 
@@ -196,7 +196,7 @@ class StepObjective:
                     bound = unbounded_step(mesh, x, p3, self.contact.dhat, reach)
                 self.last_ccd_alpha = bound.alpha
                 alpha = min(alpha, bound.alpha)
-                ctx = dataclasses.replace(ctx, collisions=bound.collisions)
+                ctx = replaced(ctx, collisions=bound.collisions)
         return LineSearch(self, x, p3, alpha, ctx)
 
     def _snap_reach(self, x: np.ndarray) -> float:
@@ -210,7 +210,7 @@ class StepObjective:
     def nonfinite_terms(self, x: np.ndarray, p: np.ndarray | None = None) -> list[str]:
         """The terms that are not finite at x (or whose bound along p is not), each
         evaluated with the collision set at x."""
-        ctx = dataclasses.replace(self.ctx, collisions=self.collisions(x))
+        ctx = replaced(self.ctx, collisions=self.collisions(x))
         return self.potential.nonfinite_terms(x, ctx, p)
 
     # -- refreshes ---------------------------------------------------------------------------
@@ -226,7 +226,7 @@ class StepObjective:
         if pull is None:  # done: they stay at x for the rest of the step
             target = self.ctx.target.copy()
             target[self.pull.vertices] = x[self.pull.vertices]
-            self.ctx = dataclasses.replace(self.ctx, target=target)
+            self.ctx = replaced(self.ctx, target=target)
         if changed:
             self._set_pull(pull)
 
@@ -291,5 +291,5 @@ class StepObjective:
             collisions = self.collisions(x_lag)
         lag = lag_friction(x_lag, self.ctx.x_start, collisions, self.contact.planes,
                            self.contact.self_friction, self.stiffness.kappa, self.contact.dhat)
-        self.ctx = dataclasses.replace(self.ctx, friction=lag)
+        self.ctx = replaced(self.ctx, friction=lag)
         return lag
