@@ -77,6 +77,11 @@ class LineSearch:
     def energy(self, alpha: float) -> float:
         return self.energy_at(self.x + alpha * self.p3)
 
+    def below_roundoff(self, alpha: float) -> bool:
+        """Whether the step αp is within round-off of the positions: ‖αp‖∞ ≤ ε·max|x|."""
+        return alpha * float(np.abs(self.p3).max(initial=0.0)) \
+            <= np.finfo(float).eps * float(np.abs(self.x).max(initial=0.0))
+
     def point(self, alpha: float) -> np.ndarray:
         """x + αp, remembered by the objective as a point of this segment: its collision
         set is then narrowed from the pairs swept here instead of queried again."""

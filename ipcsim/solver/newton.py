@@ -241,7 +241,9 @@ class NewtonSolver:
     def _backtrack(self, line, alpha, e0, it: int):
         """Halve α until E(x + αp) < E(x). Returns (α, True if it gave up, E at the point
         kept: x + αp, or x itself when it gave up). Equal energies count as no progress:
-        they only occur once E has reached round-off."""
+        they only occur once E has reached round-off. It gives up after ``max_halvings``
+        or once a step that did not lower E was within round-off of x
+        (``LineSearch.below_roundoff``)."""
         if e0 is None:
             e0 = line.energy(0.0)
         if not np.isfinite(e0):
@@ -250,6 +252,10 @@ class NewtonSolver:
             e = line.energy(alpha)
             if e < e0:  # a finite e0 and e < e0: e is finite too
                 return alpha, False, e
+            if line.below_roundoff(alpha):
+                # shorter steps only move x by less than its own round-off: give up (a
+                # converged direction of 1e-16 in free flight took all max_halvings)
+                break
             alpha *= 0.5
         return 0.0, True, e0
 
