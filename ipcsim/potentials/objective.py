@@ -10,12 +10,10 @@ The objective owns the step's refreshes, so that Newton knows nothing of contact
   ``LineSearch`` whose energies use every pair that comes within d̂ along [x, x + αp];
 * ``resolved(x, p)`` is the terms' own stopping test (friction's static ramp);
 * ``lag_friction(x)`` freezes friction's normal forces and bases at x;
-* ``follow_up(x, p, first) -> x`` after each Newton iteration: where the step's first
+* ``follow_up(x, p, first)`` after each Newton iteration: where the step's first
   iteration left the prescribed motion of bodies unfinished, their prescribed vertices
-  first move on alone, as far as CCD and the inversion bound allow (the original's
-  order: its Dirichlet vertices move before Newton), and are pulled towards their
-  targets from there (``boundary_pull.py``), as free DOFs; the pull tightens until they
-  are there (``prescribed_complete``).
+  are pulled towards their targets from then on (``boundary_pull.py``), as free DOFs;
+  the pull tightens until they are there (``prescribed_complete``).
 
 Its state is explicit: the step's ``StepContext`` (replaced, never written to), the
 ``BarrierStiffness``, the pull, the α of the last CCD sweep
@@ -221,16 +219,14 @@ class StepObjective:
         return self.potential.nonfinite_terms(x, ctx, p)
 
     # -- refreshes ---------------------------------------------------------------------------
-    def follow_up(self, x: np.ndarray, p: np.ndarray, first: bool) -> np.ndarray:
-        """Newton moved to x along p; returns where it goes on from. After the step's first
-        iteration, the bodies' prescribed vertices that have not reached their targets
-        move on alone, as far as CCD and the inversion bound let them, and are pulled from
-        there if that is not all the way; during a pull, tighten it or, once they are
-        there, end it and keep them where they are."""
+    def follow_up(self, x: np.ndarray, p: np.ndarray, first: bool) -> None:
+        """Newton moved to x along p: after the step's first iteration, pull the bodies'
+        prescribed vertices that have not reached their targets; during a pull, tighten
+        it or, once they are there, end it and keep them where they are."""
         if self.pull is None:
             if first and self.pullable is not None:
-                return self._start_pull(x)
-            return x
+                self._start_pull(x)
+            return
         pull, changed = self._schedule.next(self.pull, x, p)
         if pull is None:  # done: they stay at x for the rest of the step
             target = self.ctx.target.copy()
@@ -238,48 +234,19 @@ class StepObjective:
             self.ctx = replaced(self.ctx, target=target)
         if changed:
             self._set_pull(pull)
-        return x
 
-    def _start_pull(self, x: np.ndarray) -> np.ndarray:
+    def _start_pull(self, x: np.ndarray) -> None:
         mass, bodies = self.pullable
         vertices = np.flatnonzero(self.ctx.kinematic & bodies & (mass > 0.0))
         if not len(vertices):
-            return x
+            return
         pull = BoundaryPull(vertices, mass[vertices], self.ctx.target[vertices],
                             self.ctx.x_start[vertices])
-        if pull.completion(x) >= PullSchedule.done:
-            return x
-        x = self._move_prescribed(x, vertices)
         completion = pull.completion(x)
         schedule = PullSchedule(completion, self.small_step)
         if completion < schedule.done:
             self._schedule = schedule
             self._set_pull(pull)
-        return x
-
-    def _move_prescribed(self, x: np.ndarray, vertices: np.ndarray) -> np.ndarray:
-        """x with ``vertices`` moved towards their targets, everything else still: the
-        largest step that CCD and the terms' bounds (inversion, planes) allow, as the
-        original moves its Dirichlet vertices before a step's Newton iterations. Where
-        the whole direction's first step was cut short by contact far from them (rods
-        twisted at their ends), they get most of the way at once and the pull has little
-        left to do."""
-        d = np.zeros_like(x)
-        d[vertices] = self.ctx.target[vertices] - x[vertices]
-        last_ccd_alpha = self.last_ccd_alpha  # this sweep is not one of the line searches
-        self.last_ccd_alpha = 1.0  # (whose α starts the next one's sweep)
-        line = self.max_step(x, d.reshape(-1))
-        self.last_ccd_alpha = last_ccd_alpha
-        if not line.max_alpha > 0.0:
-            return x
-        if line.max_alpha >= 1.0:
-            y = x.copy()
-            y[vertices] = self.ctx.target[vertices]
-            self.took(y, line.ctx.collisions)
-        else:
-            y = line.point(line.max_alpha)
-        self.revision += 1  # E(x) known to Newton is not E(y)
-        return y
 
     def _set_pull(self, pull: BoundaryPull | None) -> None:
         self.pull = pull

@@ -3,11 +3,10 @@
 One call minimises an objective: anything with ``kinematic`` (n,) and ``target`` (n, 3),
 ``evaluate(x, order) -> Evaluation`` (E, ∇E, PSD Hessian triplets), ``max_step(x, p) ->
 LineSearch`` (the feasible α and the energy along p), ``resolved(x, p) -> bool``, and
-``follow_up(x, p, first) -> x``, ``prescribed_complete()`` and ``revision`` for
-prescribed vertices that the first iteration could not take to their targets (they move
-on alone as far as they safely can, then ``potentials/boundary_pull.py`` makes them free
-DOFs pulled by a stiff spring, and the step converges only once they are there;
-``revision`` changes with the potential and when follow_up moves x).
+``follow_up(x, p, first)``, ``prescribed_complete()`` and ``revision`` for the pull of
+prescribed vertices that the first iteration could not take to their targets
+(``potentials/boundary_pull.py``: they become free DOFs, pulled by a stiff spring, and
+the step converges only once they are there; ``revision`` changes with the potential).
 Kinematic DOFs are eliminated: their part of the search direction is the remaining
 prescribed motion p_k = target − x_k, and the free part solves
 
@@ -167,7 +166,7 @@ class NewtonSolver:
             if converged:
                 run.iterations = it + 1
                 return self._finish(objective, x, run, converged=True)
-            x = objective.follow_up(x, p, first=it == 0)  # may move or pull prescribed vertices
+            objective.follow_up(x, p, first=it == 0)  # may pull prescribed vertices
             kin_dofs = np.repeat(objective.kinematic, 3)  # a pull frees its vertices
         run.iterations = self.settings.max_newton_iterations
         return self._finish(objective, x, run, converged=False, hit_cap=True)
