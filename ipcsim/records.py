@@ -4,8 +4,8 @@ A time step makes its values anew rather than writing to them (a new ``StepConte
 when the collision set changes, a scaled Hessian, the next κ): tens of such copies a
 Newton iteration. ``dataclasses.replace`` runs the class's ``__init__`` with every field
 (3–5 µs a copy); ``replaced`` copies the instance dictionary (under 1 µs). It is the
-same copy for a dataclass without ``__post_init__`` and without slots, and falls back to
-``dataclasses.replace`` for any other.
+same copy for a dataclass without ``__post_init__``, slots or fields left out of
+``__init__``, and falls back to ``dataclasses.replace`` for any other.
 """
 
 from __future__ import annotations
@@ -19,9 +19,9 @@ def _plain_fields(cls: type) -> frozenset | None:
     """The names ``replaced`` may change on ``cls``, or None where it must not copy."""
     if cls not in _FIELDS:
         plain = (dataclasses.is_dataclass(cls) and not hasattr(cls, "__post_init__")
-                 and not hasattr(cls, "__slots__"))
-        _FIELDS[cls] = (frozenset(f.name for f in dataclasses.fields(cls) if f.init)
-                        if plain else None)
+                 and not hasattr(cls, "__slots__")
+                 and all(f.init for f in dataclasses.fields(cls)))  # replace resets the rest
+        _FIELDS[cls] = frozenset(f.name for f in dataclasses.fields(cls)) if plain else None
     return _FIELDS[cls]
 
 

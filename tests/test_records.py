@@ -50,6 +50,19 @@ def test_post_init_still_runs():
         replaced(_Checked(1.0), a=-1.0)
 
 
+@dataclasses.dataclass(frozen=True)
+class _Derived:
+    a: float
+    b: list = dataclasses.field(init=False, default_factory=list)
+
+
+def test_a_field_outside_init_is_made_anew_as_replace_makes_it():
+    r = _Derived(1.0)
+    r.b.append("old")
+    new = replaced(r, a=2.0)
+    assert new.a == 2.0 and new.b == [] and r.b == ["old"]
+
+
 def test_the_step_records():
     ctx = StepContext(x_start=np.zeros((2, 3)), dhat=1e-3)
     new = replaced(ctx, collisions="set")
