@@ -34,7 +34,6 @@ the contact set changed, is analysed afresh.
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import glob
 import os
 import site
@@ -292,6 +291,8 @@ def find_mkl_rt() -> str | None:
     global _MKL_RT
     if _MKL_RT is not False:
         return _MKL_RT
+    import ctypes.util  # here: 2 ms of imports that only the search for MKL needs
+
     found = os.environ.get("IPCSIM_MKL_RT") or ctypes.util.find_library("mkl_rt")
     if not found:
         names = ("libmkl_rt.so*", "libmkl_rt*.dylib", "mkl_rt*.dll")

@@ -232,8 +232,7 @@ SCENES = [("input/two_cubes_fall.txt", 40),
 def test_the_example_scenes_run_without_numba(scene, steps, tmp_path):
     """Every kernel call of these runs (contact, friction, the initial and the frames'
     intersection checks) has its compiled variant: numba is never imported. Nor is
-    scipy.sparse: the Newton matrix is ipcsim's own CSC (solver/assembly.CscMatrix).
-    (scipy.linalg is: the contact barrier's eigh takes LAPACK from it.)"""
+    scipy.sparse: the Newton matrix is ipcsim's own CSC (solver/assembly.CscMatrix)."""
     if not os.path.exists(scene):
         pytest.skip("the original's examples are not beside the project")
     code = ("import sys, ipcsim\n"
@@ -253,10 +252,10 @@ def test_the_example_scenes_run_without_numba(scene, steps, tmp_path):
 
 
 @needs_compiled
-def test_the_run_command_takes_lapack_without_the_rest_of_scipy_linalg(tmp_path):
-    """``ipcsim run`` loads scipy's LAPACK wrappers alone (0.02 s instead of 0.15 s for
-    ``scipy.linalg``): a run whose contacts need the barrier's eigh leaves scipy.linalg
-    unimported, and its frames are those of the same run in a process that imported it."""
+def test_a_run_with_contacts_leaves_scipy_linalg_unimported(tmp_path):
+    """A run whose contacts need the barrier's eigen-decompositions (the kernels' own,
+    ``linalg.symmetric_eigen``) leaves scipy.linalg unimported (0.15 s of imports), and
+    its frames are those of the same run in a process that imported it."""
     scene = IPC_EXAMPLES / "input" / "tutorialExamples" / "2cubesFall.txt"
     if not os.path.exists(scene):
         pytest.skip("the original's examples are not beside the project")
