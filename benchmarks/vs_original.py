@@ -562,8 +562,13 @@ def summarise(st: Staged, verdict: dict) -> dict:
         row[f"{program}_wall_all"] = " ".join(f"{r.wall_s:.3f}" for r in runs)
         if any(r.rc != 0 for r in runs):
             row[f"{program}_rc"] = next(r.rc for r in runs if r.rc != 0)
-    row["ratio"] = _ratio(row.get("ipcsim_wall_s"), row.get("original_wall_s"))
-    row["steps_ratio"] = _ratio(row.get("ipcsim_steps_wall_s"), row.get("original_steps_wall_s"))
+    # a failed run's time is no measure of the scene (the original fails at once on the
+    # scripts whose meshes its build cannot find): no ratio then, in the table or chart
+    both_ok = row.get("ipcsim_rc") == 0 and row.get("original_rc") == 0
+    row["ratio"] = (_ratio(row.get("ipcsim_wall_s"), row.get("original_wall_s"))
+                    if both_ok else None)
+    row["steps_ratio"] = (_ratio(row.get("ipcsim_steps_wall_s"),
+                                 row.get("original_steps_wall_s")) if both_ok else None)
     row.update({f"compare_{k}": v for k, v in verdict.items()})
     return row
 

@@ -143,3 +143,18 @@ def test_shortening_reaches_the_time_line_of_an_sqp_section(tmp_path):
     short.write_text(vs.shortened(source.read_text(), 5 * as_written.dt, as_written.dt))
     spec = load_scene(short)
     assert spec.dt == as_written.dt and spec.n_steps == 5 < as_written.n_steps
+
+
+def test_a_failed_run_has_no_ratio(tmp_path):
+    """The original exits 1 at once on a script whose meshes its build cannot find: the
+    row keeps both times and exit statuses but no ratio of them."""
+    scene = vs.SMOKE_REPO  # a script of this repository: there with or without examples
+    staged = vs.Staged(scene, vs.REPO_ROOT / scene.script, tmp_path / "a.txt", "a")
+    staged.runs["ipcsim"].append(vs.Run(0, 0.6, 50.0, steps_wall_s=0.4))
+    staged.runs["original"].append(vs.Run(1, 0.004, 11.0))
+    row = vs.summarise(staged, {})
+    assert row["original_rc"] == 1 and row["ipcsim_wall_s"] == 0.6
+    assert row["ratio"] is None and row["steps_ratio"] is None
+    staged.runs["original"][0] = vs.Run(0, 0.3, 11.0, steps_wall_s=0.29)
+    row = vs.summarise(staged, {})
+    assert row["ratio"] == 0.6 / 0.3 and row["steps_ratio"] == 0.4 / 0.29
