@@ -17,18 +17,18 @@ _FIELDS: dict[type, frozenset | None] = {}  # class -> its init fields, None: us
 
 def _plain_fields(cls: type) -> frozenset | None:
     """The names ``replaced`` may change on ``cls``, or None where it must not copy."""
-    if cls not in _FIELDS:
-        plain = (dataclasses.is_dataclass(cls) and not hasattr(cls, "__post_init__")
-                 and not hasattr(cls, "__slots__")
-                 and all(f.init for f in dataclasses.fields(cls)))  # replace resets the rest
-        _FIELDS[cls] = frozenset(f.name for f in dataclasses.fields(cls)) if plain else None
-    return _FIELDS[cls]
+    plain = (dataclasses.is_dataclass(cls) and not hasattr(cls, "__post_init__")
+             and not hasattr(cls, "__slots__")
+             and all(f.init for f in dataclasses.fields(cls)))  # replace resets the rest
+    return frozenset(f.name for f in dataclasses.fields(cls)) if plain else None
 
 
 def replaced(record, **changes):
     """``dataclasses.replace(record, **changes)``: the same result, a fraction of its cost."""
     cls = type(record)
-    names = _FIELDS.get(cls) or _plain_fields(cls)
+    if cls not in _FIELDS:
+        _FIELDS[cls] = _plain_fields(cls)
+    names = _FIELDS[cls]
     if names is None or not changes.keys() <= names:
         return dataclasses.replace(record, **changes)  # its checks and errors
     new = object.__new__(cls)

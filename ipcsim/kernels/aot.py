@@ -90,6 +90,16 @@ def _no_match(args):
     return None
 
 
+def match_on_first_call(kernel):
+    """A stand-in for ``kernel.match`` that generates the matcher of ``kernel.compiled``
+    at the kernel's first call and puts it in its place: a run calls a few dozen of the
+    package's kernels, and generating one costs tens of microseconds at import."""
+    def first_match(args):
+        kernel.match = matcher(kernel.compiled)
+        return kernel.match(args)
+    return first_match
+
+
 def _test(expr: str, key, namespace: dict) -> str:
     """The Python expression that holds when ``_key(expr) == key``."""
     if key is None:

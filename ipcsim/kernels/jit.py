@@ -81,14 +81,8 @@ class Jit:
         self.options = options
         self._dispatcher = None
         self.compiled = aot.compiled_entry(py_func)  # argument types -> compiled function
-        self.match = self._first_match  # args -> its compiled function, or None
+        self.match = aot.match_on_first_call(self)  # args -> its compiled function
         functools.update_wrapper(self, py_func)
-
-    def _first_match(self, args):
-        # the matcher is generated at the first call: a run calls a few dozen of the
-        # package's kernels, and generating one costs tens of microseconds at import
-        self.match = aot.matcher(self.compiled)
-        return self.match(args)
 
     def dispatcher(self):
         """numba's dispatcher of this kernel (made, not compiled, on first use)."""

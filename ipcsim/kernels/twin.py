@@ -39,14 +39,8 @@ class Kernel:
         self.options = options
         self._variants = {}
         self.compiled = aot.compiled_entry(py_func)  # serial variant's, by argument types
-        self.match = self._first_match  # args -> its compiled function, or None
+        self.match = aot.match_on_first_call(self)  # args -> its compiled function
         functools.update_wrapper(self, py_func)
-
-    def _first_match(self, args):
-        # the matcher is generated at the first call: a run calls a few dozen of the
-        # package's kernels, and generating one costs tens of microseconds at import
-        self.match = aot.matcher(self.compiled)
-        return self.match(args)
 
     def variant(self, parallel: bool):
         """The njit dispatcher of one variant, made on first use (when its module and

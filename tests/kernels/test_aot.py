@@ -276,3 +276,17 @@ def test_a_run_with_contacts_leaves_scipy_linalg_unimported(tmp_path):
     for frame in sorted((folders["alone"] / "frames").glob("*.vtu")):
         assert frame.read_bytes() == (folders["with scipy.linalg"] / "frames" /
                                       frame.name).read_bytes()
+
+
+def test_a_kernels_matcher_is_made_at_its_first_call():
+    """``match_on_first_call`` answers the first call as the generated matcher does and
+    leaves that matcher in its place for the calls after it."""
+    class Owner:
+        compiled = {(("float64", 1),): len}
+
+    owner = Owner()
+    owner.match = aot.match_on_first_call(owner)
+    stand_in = owner.match
+    assert owner.match((np.zeros(3),)) is len
+    assert owner.match is not stand_in
+    assert owner.match((np.zeros(3),)) is len and owner.match((np.zeros(3, int),)) is None
