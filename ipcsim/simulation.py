@@ -98,7 +98,9 @@ class Simulation:
         self.potential = incremental_potential(model, self.integrator.force_weight)
         self.contact = ContactSetup.from_model(model)
         self.timer = PhaseTimer()
-        self.linear_solver = make_solver(linear_solver or model.solver.linear_solver)
+        # free DOFs never exceed 3n: a small scene's "auto" solver factors dense
+        self.linear_solver = make_solver(linear_solver or model.solver.linear_solver,
+                                         3 * model.n_vertices)
         self.newton = NewtonSolver(model.solver, self.linear_solver, self.timer,
                                    observer=self._observe)
         self.on_iteration = None  # called with each newton.csv row as it completes (-v)

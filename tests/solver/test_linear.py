@@ -278,3 +278,97 @@ def test_the_newton_matrix_arrays_are_kept_and_other_matrices_copied(name):
     solver.solve(A, b)
     assert solver._pattern.indices_full is not A.indices
     np.testing.assert_array_equal(solver._pattern.indices_full, A.indices)
+
+
+# --------------------------------------------------------------------------- dense (small)
+
+@pytest.mark.parametrize("n_vertices", [2, 5, 16, 32])
+def test_dense_solver_agrees_with_numpy(n_vertices):
+    """The dense factor of a small system solves it as numpy's LAPACK solve does, from
+    CSC, CSR and non-canonical input (duplicates, unsorted rows)."""
+    A = block_spd(n_vertices, seed=20 + n_vertices, scale_seed=1)
+    b = np.random.default_rng(n_vertices).standard_normal(A.shape[0])
+    expected = np.linalg.solve(A.toarray(), b)
+    solver = linear.DenseSolver()
+    for M in (A, A.tocsr(), A.tocoo()):
+        x = solver.solve(M, b)
+        np.testing.assert_allclose(x, expected, rtol=1e-11, atol=1e-14)
+    C = A.tocoo()
+    dup = sp.coo_matrix((np.concatenate([C.data / 2, C.data / 2]),
+                         (np.tile(C.row, 2), np.tile(C.col, 2))), shape=A.shape)
+    np.testing.assert_allclose(solver.solve(dup, b), expected, rtol=1e-11, atol=1e-14)
+
+
+def test_dense_solver_agrees_with_cholmod_on_the_newton_matrix():
+    """On the Newton matrix as assembly makes it (``CscMatrix``, int32 indices) the dense
+    factor and CHOLMOD give the same direction to round-off."""
+    require("cholmod")
+    from ipcsim.solver.assembly import CscMatrix
+
+    A = block_spd(16, seed=31)
+    ours = CscMatrix(A.data.copy(), A.indices.astype(np.int32), A.indptr.astype(np.int32),
+                     A.shape)
+    b = np.random.default_rng(5).standard_normal(A.shape[0])
+    x = linear.DenseSolver().solve(ours, b)
+    assert rel_residual(A, x, b) < 1e-13
+    np.testing.assert_allclose(x, linear.CholmodSolver().solve(ours, b), rtol=1e-12,
+                               atol=1e-15)
+
+
+def test_dense_solver_solves_again_with_its_factor_and_sizes_follow_the_matrix():
+    solver = linear.DenseSolver()
+    rng = np.random.default_rng(8)
+    for n_vertices in (10, 4, 10):  # a new size each time: the factor follows it
+        A = block_spd(n_vertices, seed=n_vertices)
+        solver.solve(A, rng.standard_normal(A.shape[0]))
+        b = rng.standard_normal(A.shape[0])
+        assert rel_residual(A, solver.solve_again(b), b) < 1e-12
+    with pytest.raises(ValueError, match="right side"):
+        solver.solve_again(np.ones(3))
+    assert solver.solve(sp.csc_matrix((0, 0)), np.zeros(0)).shape == (0,)
+    assert solver.solve_again(np.zeros(0)).shape == (0,)
+
+
+@pytest.mark.parametrize("defect", ["indefinite", "zero diagonal", "nan"])
+def test_dense_solver_refuses_what_is_not_positive_definite(defect):
+    A = block_spd(12, seed=14).tolil()
+    if defect == "indefinite":
+        A = A - sp.diags(np.full(A.shape[0], 2.0 * A.diagonal().max()))
+    elif defect == "zero diagonal":
+        A[7, 7] = 0.0
+    else:
+        A[5, 5] = np.nan
+    solver = linear.DenseSolver()
+    with pytest.raises(SolverError, match="Cholesky"):
+        solver.solve(sp.csc_matrix(A), np.ones(A.shape[0]))
+    with pytest.raises(ValueError):  # no factor is left to solve again with
+        solver.solve_again(np.ones(A.shape[0]))
+
+
+def test_auto_factors_small_systems_dense_and_others_with_the_sparse_default():
+    expected = next((n for n in AUTO_ORDER if n in AVAILABLE), "scipy")
+    assert make_solver(None, linear.DENSE_UP_TO).name == "dense"
+    assert make_solver("auto", 3).name == "dense"
+    assert make_solver("auto", linear.DENSE_UP_TO + 1).name == expected
+    assert make_solver("auto").name == expected  # size unknown
+    assert make_solver("scipy", 3).name == "scipy"  # a named solver is what it names
+
+
+def test_a_small_scene_runs_without_importing_kvxopt(tmp_path, repo_root):
+    """A scene of one cube of 8 vertices factors dense: kvxopt, 9 ms of imports, stays
+    out."""
+    from generated import write_box_msh
+
+    write_box_msh(tmp_path / "box.msh", cells=(1, 1, 1))
+    scene = tmp_path / "box_drop.toml"
+    scene.write_text((repo_root / "input" / "cube_drop.toml").read_text()
+                     .replace('"meshes/cube.msh"', '"box.msh"'))
+    code = ("import sys\nfrom ipcsim.cli import main\n"
+            f"status = main(['run', {str(scene)!r}, '-o', {str(tmp_path / 'out')!r}, "
+            "'--steps', '30', '-q'])\n"
+            "print(status, 'kvxopt' in sys.modules)\n")
+    printed = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                             check=True).stdout.strip().splitlines()[-1]
+    assert printed == "0 False"
+    info = (tmp_path / "out" / "run.json").read_text()
+    assert '"linear_solver": "dense"' in info
