@@ -1,7 +1,5 @@
 """``python -m ipcsim``: the same command line as ``ipcsim``."""
 
-import sys
+from .cli import console
 
-from .cli import main
-
-sys.exit(main())
+console()

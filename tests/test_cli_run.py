@@ -4,6 +4,8 @@ implemented yet, and `ipcsim check --frames` on the written frames."""
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 
 import meshio
 import pytest
@@ -53,3 +55,30 @@ def test_run_writes_the_output_folder(drop_scene, tmp_path, capsys):
     meshio.write(frames[5], mesh)
     assert main(["check", "--frames", str(out)]) == 1
     assert "below a plane" in capsys.readouterr().out
+
+
+def test_the_command_exits_with_mains_status_and_frozen_objects(monkeypatch):
+    """``console`` (the ``ipcsim`` script, ``python -m ipcsim``) exits with what ``main``
+    returned, having frozen the objects left out of the exit's collector pass."""
+    import ipcsim.cli as cli
+
+    calls = []
+    monkeypatch.setattr(cli, "main", lambda: calls.append("main") or 3)
+    monkeypatch.setattr(cli.gc, "freeze", lambda: calls.append("freeze"))
+    with pytest.raises(SystemExit) as exit_info:
+        cli.console()
+    assert exit_info.value.code == 3 and calls == ["main", "freeze"]
+
+
+def test_python_m_ipcsim_runs_a_scene_and_exits_0(tmp_path):
+    write_box_msh(tmp_path / "cube.msh", cells=(1, 1, 1))
+    scene = tmp_path / "drop.txt"
+    scene.write_text("shapes input 1\ncube.msh 0 0.01 0  0 0 0  1 1 1\nground 0 0\n"
+                     "time 0.03 0.01\n")
+    done = subprocess.run([sys.executable, "-m", "ipcsim", "run", str(scene), "-o",
+                           str(tmp_path / "out"), "-q"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert len(list((tmp_path / "out" / "frames").glob("*.vtu"))) == 4
+    missing = subprocess.run([sys.executable, "-m", "ipcsim", "run", str(tmp_path / "no.txt")],
+                             capture_output=True, text=True)
+    assert missing.returncode == 2 and "not found" in missing.stderr
