@@ -11,6 +11,7 @@ x as a ``TermValues``; the sums at a given κ are taken from it.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -30,12 +31,21 @@ class WeightedTerm:
 @dataclass(frozen=True, eq=False)
 class TermValues:
     """Each term's value, and with order ≥ 1 its gradient, with order 2 its Hessian, at
-    one x (unweighted; the weights and κ are applied by the sums)."""
+    one x (unweighted; the weights and κ are applied by the sums).
+
+    The values are evaluated when first read: at a Newton iterate the line search that
+    reached x has given E(x) already, and Newton reads them again only where κ or the
+    potential itself changed there."""
 
     terms: tuple[WeightedTerm, ...]
-    values: tuple[float, ...]
+    x: np.ndarray
+    ctx: StepContext
     gradients: tuple[np.ndarray, ...] | None = None
     hessians: tuple[Triplets, ...] | None = None
+
+    @cached_property
+    def values(self) -> tuple[float, ...]:
+        return tuple(float(t.term.value(self.x, self.ctx)) for t in self.terms)
 
     def energy(self, kappa: float) -> float:
         return float(sum(t.factor(kappa) * v for t, v in zip(self.terms, self.values)))
@@ -81,10 +91,11 @@ class IncrementalPotential:
         return next((t.term for t in self.terms if t.term.name == name), None)
 
     def evaluate(self, x: np.ndarray, ctx: StepContext, order: int = 0) -> TermValues:
-        values = tuple(float(t.term.value(x, ctx)) for t in self.terms)
+        """The terms at x: their gradients (order ≥ 1) and Hessians (order 2) now, their
+        values when first read (``TermValues.values``)."""
         gradients = tuple(t.term.gradient(x, ctx) for t in self.terms) if order >= 1 else None
         hessians = tuple(t.term.hessian(x, ctx) for t in self.terms) if order >= 2 else None
-        return TermValues(self.terms, values, gradients, hessians)
+        return TermValues(self.terms, x, ctx, gradients, hessians)
 
     def value(self, x: np.ndarray, ctx: StepContext, kappa: float) -> float:
         return float(sum(t.factor(kappa) * t.term.value(x, ctx) for t in self.terms))

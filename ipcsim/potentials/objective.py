@@ -30,6 +30,7 @@ its first set afresh, sums the barrier exactly as the uninterrupted run did.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -47,15 +48,19 @@ from .incremental import IncrementalPotential, TermValues, WeightedTerm
 @dataclass(frozen=True, eq=False)
 class Evaluation:
     """The incremental potential at one x: energy, gradient (order ≥ 1) and Hessian
-    triplets split by pattern (order 2) at the κ in force, and the contacts at x."""
+    triplets split by pattern (order 2) at the κ in force, and the contacts at x. The
+    energy is summed when first read (``TermValues.values``)."""
 
     x: np.ndarray
     values: TermValues
     kappa: float
     contacts: ContactCount
-    energy: float
     gradient: np.ndarray | None = None
     hessian: tuple[list[Triplets], list[Triplets]] | None = None
+
+    @cached_property
+    def energy(self) -> float:
+        return self.values.energy(self.kappa)
 
     def without_hessian(self) -> "Evaluation":
         """The same evaluation without its Hessian (whose contact entries, in heavy
@@ -167,12 +172,14 @@ class StepObjective:
         self.ctx = replaced(self.ctx, collisions=collisions)
         with self.timer("energy"):
             values = self.potential.evaluate(x, self.ctx, order)
+            if order == 0:
+                values.values  # read at once: what order 0 is asked for
         if order == 2 and adapt:
             self._adapt_stiffness(values, contacts)
         kappa = self.stiffness.kappa
         hessian = values.hessian(kappa) if order >= 2 else None
         values = replaced(values, hessians=None)  # held by ``hessian`` alone
-        return Evaluation(x, values, kappa, contacts, values.energy(kappa),
+        return Evaluation(x, values, kappa, contacts,
                           values.gradient(kappa) if order >= 1 else None, hessian)
 
     def _adapt_stiffness(self, values: TermValues, contacts: ContactCount) -> None:
