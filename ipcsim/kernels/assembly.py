@@ -141,6 +141,51 @@ def merge_columns(indptr, indices, data, start, bucket_rows, bucket_vals):
     return out_ptr, out_idx[:o], out_val[:o]
 
 
+# --- a small system's matrix, dense ----------------------------------------------------
+# Below DenseSolver's size (solver/linear.py) every entry is added where it falls in the
+# (n_free, n_free) array: no pattern to build, no buckets, no merge.
+
+@njit(cache=True)
+def add_triplets_dense(A, rows, cols, vals, scale, free_index, p, coupling):
+    """A[r, c] += scale·v for each triplet of a free row r and free column c (in DOF
+    numbers, mapped by free_index); one of a free row and a kinematic column adds
+    scale·v·p[col] to coupling[r] instead, one of a kinematic row is dropped."""
+    for t in range(rows.shape[0]):
+        r = free_index[rows[t]]
+        if r < 0:
+            continue
+        v = scale * vals[t]
+        c = free_index[cols[t]]
+        if c >= 0:
+            A[r, c] += v
+        else:
+            coupling[r] += v * p[cols[t]]
+
+
+@njit(cache=True)
+def add_blocks_dense(A, vals, scale, stencils, free_index, p, coupling):
+    """``add_triplets_dense`` for per-stencil blocks: entry k·B + nd·i + j of vals
+    (nd = 3·nv, B = nd², nv = stencils.shape[1]) couples DOF 3·s[i // 3] + i % 3 with
+    DOF 3·s[j // 3] + j % 3, s = stencils[k] (tets, contact stencils)."""
+    nd = 3 * stencils.shape[1]
+    t = 0
+    for k in range(stencils.shape[0]):
+        for i in range(nd):
+            r = free_index[3 * stencils[k, i // 3] + i % 3]
+            if r < 0:
+                t += nd
+                continue
+            for j in range(nd):
+                g = 3 * stencils[k, j // 3] + j % 3
+                v = scale * vals[t]
+                t += 1
+                c = free_index[g]
+                if c >= 0:
+                    A[r, c] += v
+                else:
+                    coupling[r] += v * p[g]
+
+
 # --- the fixed pattern of inertia, elasticity and damping -------------------------------
 
 @njit(cache=True)

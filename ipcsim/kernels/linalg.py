@@ -330,6 +330,15 @@ def dense_cholesky(indptr, indices, data, L):
             i = indices[k]
             if i >= j:
                 L[i, j] += data[k]
+    return cholesky_in_place(L)
+
+
+@njit(cache=True)
+def cholesky_in_place(L):
+    """The Cholesky factor of the symmetric A whose lower triangle L (n, n) holds, in
+    that lower triangle (the strict upper one is not read, nor written). False at the
+    first pivot that is not positive (or not finite): A is not positive definite."""
+    n = L.shape[0]
     for j in range(n):
         # L_jj = √(A_jj − Σ_k<j L_jk²),  L_ij = (A_ij − Σ_k<j L_ik L_jk) / L_jj
         d = L[j, j]

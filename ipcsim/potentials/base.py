@@ -99,6 +99,12 @@ class Triplets:
         ka.scatter_into_pattern(data, slots, self.vals, self.scale, self.rows, self.cols,
                                 free_index, p, coupling)
 
+    def add_dense(self, A, free_index, p, coupling) -> None:
+        """A[r, c] += the entries of free rows and columns (a small system's dense
+        matrix); free rows' entries in kinematic columns go to coupling."""
+        ka.add_triplets_dense(A, self.rows, self.cols, self.vals, float(self.scale),
+                              free_index, p, coupling)
+
     def count_into(self, free_index, p, coupling, counts) -> None:
         """Count the entries a merge keeps per free column (``kernels/assembly.py``)."""
         ka.count_kept_columns(self.rows, self.cols, self.vals, float(self.scale), free_index,
@@ -153,6 +159,11 @@ class BlockHessian:
 
     def tocsr(self, n_dofs: int) -> "sp.csr_matrix":
         return Triplets(*block_triplet_indices(self.stencils), self.values).tocsr(n_dofs)
+
+    def add_dense(self, A, free_index, p, coupling) -> None:
+        """As ``Triplets.add_dense``, block by block."""
+        ka.add_blocks_dense(A, self.vals, float(self.scale), self.stencils, free_index, p,
+                            coupling)
 
     def count_into(self, free_index, p, coupling, counts) -> None:
         """As ``Triplets.count_into``, a piece at a time."""
@@ -239,6 +250,13 @@ class ElementHessian:
             raise ValueError("element blocks need each vertex's three DOFs free (numbered "
                              "consecutively) or kinematic together")
         return ka.element_block_slots(self.elements, free_index, indptr, indices)
+
+    def add_dense(self, A, free_index, p, coupling) -> None:
+        """As ``Triplets.add_dense``, one chunk of elements at a time."""
+        for lo in range(0, self.n_elements, self.CHUNK):
+            hi = min(lo + self.CHUNK, self.n_elements)
+            ka.add_blocks_dense(A, self.element_values(self.x, lo, hi), float(self.scale),
+                                self.elements[lo:hi], free_index, p, coupling)
 
     def scatter_into(self, data, slots, free_index, p, coupling) -> None:
         """As ``Triplets.scatter_into`` (with ``slots_in``'s slots), one chunk of elements

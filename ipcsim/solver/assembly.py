@@ -122,6 +122,26 @@ class Assembler:
         return pat
 
 
+class DenseAssembler:
+    """The Newton matrix of a small system as a dense (n_free, n_free) array, for
+    ``linear.DenseSolver``: every part adds its entries where they fall
+    (``add_dense``), so there is no pattern to build and no merge (on two tutorial cubes,
+    48 DOFs, the sparse assembly is about 90 µs of a 470 µs Newton iteration)."""
+
+    def assemble(self, static_parts, dynamic_parts: list, free_index, n_free, p):
+        """(A over free DOFs, dense; coupling H_fk p_k over free DOFs), as
+        ``Assembler.assemble``; ``dynamic_parts`` is emptied as there."""
+        A = np.zeros((n_free, n_free))
+        coupling = np.zeros(n_free)
+        for part in static_parts:
+            part.add_dense(A, free_index, p, coupling)
+        while dynamic_parts:
+            part = dynamic_parts.pop(0)
+            if part.size:  # no contact: nothing to add
+                part.add_dense(A, free_index, p, coupling)
+        return A, coupling
+
+
 def _merge(pat, data, parts: list, free_index, p, coupling):
     """The static matrix (pat's pattern, data) plus the triplets of ``parts``: counted
     and bucketed by free column term after term (no concatenated copy; ``parts`` is

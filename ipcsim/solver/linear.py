@@ -47,7 +47,7 @@ import numpy as np
 
 from ..errors import SolverError
 from ..kernels.assembly import block_graph
-from ..kernels.linalg import cholesky_solve, dense_cholesky
+from ..kernels.linalg import cholesky_in_place, cholesky_solve, dense_cholesky
 
 BLOCK = 3  # DOFs per vertex: the ordering works on the graph of these blocks
 
@@ -175,25 +175,38 @@ class ScipySolver:
 
 
 class DenseSolver:
-    """Dense Cholesky L Lᵀ = A (``kernels/linalg.dense_cholesky``) for small systems only:
-    n² memory and n³/3 operations. At 48 DOFs a solve takes 14 µs against CHOLMOD's 22 µs
-    (its per-call setup); at about 70 DOFs the two are even (``benchmarks/small_solves.py``,
-    docs/linear-solvers.md)."""
+    """Dense Cholesky L Lᵀ = A (``kernels/linalg.py``) for small systems only: n² memory
+    and n³/3 operations. At 48 DOFs a solve takes 14 µs against CHOLMOD's 22 µs (its
+    per-call setup); at about 70 DOFs the two are even (``benchmarks/small_solves.py``,
+    docs/linear-solvers.md). ``A`` is a sparse matrix, or the dense (n, n) array that
+    ``assembly.DenseAssembler`` makes (``dense`` says Newton may hand it one), which is
+    factored in place: its lower triangle becomes L."""
 
     name = "dense"
+    dense = True
 
     def __init__(self):
         self._L = np.zeros((0, 0))
 
     def solve(self, A, b: np.ndarray) -> np.ndarray:
-        indptr, indices, data = _symmetric_csc_arrays(A)
-        n = len(indptr) - 1
-        if self._L.shape[0] != n:
-            self._L = np.empty((n, n))
-        # int32 indices and float64 values: the kernel's compiled variant
-        if not dense_cholesky(np.asarray(indptr, dtype=np.int32),
-                              np.asarray(indices, dtype=np.int32),
-                              np.asarray(data, dtype=np.float64), self._L):
+        if isinstance(A, np.ndarray):
+            if A.ndim != 2 or A.shape[0] != A.shape[1] or A.dtype != np.float64 \
+                    or not A.flags.c_contiguous:
+                order = "C-contiguous" if A.flags.c_contiguous else "not C-contiguous"
+                raise ValueError(f"expected a square C-contiguous float64 array, got a "
+                                 f"{A.shape} {A.dtype} array, {order}")
+            self._L = A
+            factored = cholesky_in_place(A)
+        else:
+            indptr, indices, data = _symmetric_csc_arrays(A)
+            n = len(indptr) - 1
+            if self._L.shape[0] != n:
+                self._L = np.empty((n, n))
+            # int32 indices and float64 values: the kernel's compiled variant
+            factored = dense_cholesky(np.asarray(indptr, dtype=np.int32),
+                                      np.asarray(indices, dtype=np.int32),
+                                      np.asarray(data, dtype=np.float64), self._L)
+        if not factored:
             self._L = np.zeros((0, 0))  # no factor to solve again with
             raise SolverError("Cholesky factorisation failed (matrix not positive definite "
                               "or not finite)")

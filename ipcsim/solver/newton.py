@@ -31,7 +31,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..errors import NonFiniteError, SolverError
-from .assembly import Assembler
+from .assembly import Assembler, DenseAssembler
 from .timing import PhaseTimer
 
 
@@ -95,7 +95,9 @@ class NewtonSolver:
         self.linear_solver = linear_solver
         self.timer = timer or PhaseTimer()
         self.observer = observer
-        self.assembler = Assembler()
+        # a solver that factors dense arrays (small systems) gets the matrix as one
+        self.assembler = DenseAssembler() if getattr(linear_solver, "dense", False) \
+            else Assembler()
         self._free = []  # (kinematic mask, DOF -> free index) of the last two masks
 
     def _free_index(self, kinematic):

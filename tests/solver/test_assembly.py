@@ -184,3 +184,64 @@ def test_newton_keeps_the_free_index_of_the_last_two_masks():
     newton._free_index(c)  # a third mask: a, the least recently made, goes
     assert newton._free_index(b) is first_b
     assert newton._free_index(a) is not first_a
+
+
+def _elastic_hessian(n_cells=(2, 1, 1)):
+    """An ElementHessian (per-tet 12 × 12 blocks, evaluated when assembled) of a jittered
+    box, and its vertex count."""
+    from ipcsim.model.generate import box_tet_mesh
+    from ipcsim.potentials.elasticity import Elasticity
+
+    X, tets = box_tet_mesh(*n_cells)
+    Dm = np.stack([X[tets[:, k]] - X[tets[:, 0]] for k in (1, 2, 3)], axis=2)
+    elastic = Elasticity(tets, np.linalg.inv(Dm), np.linalg.det(Dm) / 6.0, (1e4, 4e4), "NH",
+                         len(X))
+    x = X + 0.05 * RNG.normal(size=X.shape)
+    return elastic.hessian(x), len(X)
+
+
+@pytest.mark.parametrize("prescribed", [0, 3])
+def test_the_dense_assembly_is_the_sparse_one_as_an_array(prescribed):
+    """DenseAssembler (DenseSolver's) gives the matrix and coupling of Assembler, for
+    every kind of part: int32 and int64 triplets, element blocks, contact blocks."""
+    from ipcsim.potentials.base import BlockHessian
+    from ipcsim.solver.assembly import DenseAssembler
+
+    elastic, n_vertices = _elastic_hessian()
+    n_dofs = 3 * n_vertices
+    dofs = np.arange(n_dofs, dtype=np.int32)
+    inertia = Triplets(dofs, dofs, RNG.random(n_dofs) + 1.0)  # int32, as the mass's
+    stencils = np.array([RNG.choice(n_vertices, 4, replace=False) for _ in range(6)])
+    contact = BlockHessian(stencils, RNG.normal(size=144 * len(stencils))).scaled(3.0)
+    friction = _random_triplets(n_dofs, 50).scaled(0.5)  # int64
+    kinematic = np.zeros(n_vertices, dtype=bool)
+    kinematic[RNG.choice(n_vertices, prescribed, replace=False)] = True
+    kin_dofs = np.repeat(kinematic, 3)
+    free_index = np.full(n_dofs, -1)
+    free_index[~kin_dofs] = np.arange((~kin_dofs).sum())
+    n_free = int((~kin_dofs).sum())
+    p = RNG.normal(size=n_dofs)
+    static = [inertia, elastic.scaled(0.01)]
+    dynamic = [contact, Triplets.empty(), friction]
+    sparse_A, sparse_c = Assembler().assemble(static, list(dynamic), free_index, n_free, p)
+    given = list(dynamic)
+    A, coupling = DenseAssembler().assemble(static, given, free_index, n_free, p)
+    assert given == []  # taken over and let go, as Assembler does
+    assert isinstance(A, np.ndarray) and A.shape == (n_free, n_free) and A.flags.c_contiguous
+    np.testing.assert_allclose(A, sparse_A.toarray(), rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(coupling, sparse_c, rtol=1e-12, atol=1e-9)
+    if prescribed:
+        assert np.abs(coupling).max() > 0.0
+
+
+def test_newton_assembles_dense_for_a_solver_that_factors_dense_arrays():
+    from ipcsim.solver.assembly import DenseAssembler
+    from ipcsim.solver.linear import CholmodSolver, DenseSolver, ScipySolver
+    from ipcsim.solver.newton import NewtonSolver
+
+    assert isinstance(NewtonSolver(None, DenseSolver()).assembler, DenseAssembler)
+    assert isinstance(NewtonSolver(None, ScipySolver()).assembler, Assembler)
+    try:
+        assert isinstance(NewtonSolver(None, CholmodSolver()).assembler, Assembler)
+    except ImportError:
+        pass

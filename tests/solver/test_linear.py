@@ -372,3 +372,24 @@ def test_a_small_scene_runs_without_importing_kvxopt(tmp_path, repo_root):
     assert printed == "0 False"
     info = (tmp_path / "out" / "run.json").read_text()
     assert '"linear_solver": "dense"' in info
+
+
+def test_dense_solver_factors_a_dense_array_in_place():
+    """The dense matrix DenseAssembler makes is factored where it lies (its lower
+    triangle becomes L) and solves as the sparse matrix does."""
+    A = block_spd(12, seed=40)
+    b = np.random.default_rng(41).standard_normal(A.shape[0])
+    dense = np.ascontiguousarray(A.toarray())
+    solver = linear.DenseSolver()
+    x = solver.solve(dense, b)
+    np.testing.assert_allclose(x, linear.DenseSolver().solve(A, b), rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(np.tril(dense) @ np.tril(dense).T, A.toarray(), rtol=1e-12,
+                               atol=1e-12)
+    assert rel_residual(A, solver.solve_again(2 * b), 2 * b) < 1e-12
+    with pytest.raises(ValueError, match="square"):
+        solver.solve(np.ones((3, 4)), np.ones(3))
+    with pytest.raises(ValueError, match="not C-contiguous"):
+        solver.solve(np.asfortranarray(np.eye(3) + np.tri(3)), np.ones(3))
+    indefinite = np.ascontiguousarray(A.toarray() - 2.0 * np.abs(A).max() * np.eye(A.shape[0]))
+    with pytest.raises(SolverError, match="Cholesky"):
+        solver.solve(indefinite, b)
