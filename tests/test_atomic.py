@@ -118,3 +118,23 @@ def test_syncfs_of_a_real_folder(tmp_path):
     expected = os.uname().sysname == "Linux"
     assert atomic._syncfs({tmp_path}) is expected
     assert atomic._syncfs({tmp_path / "missing"}) is False
+
+
+def test_write_bytes_that_fails_keeps_the_old_file_and_no_temporary(tmp_path, monkeypatch):
+    """A write that fails half way (a full disk) leaves the old content and no temporary
+    file; a write the system takes in parts is completed."""
+    target = tmp_path / "frame_000001.vtu"
+    atomic_write_bytes(target, b"old frame")
+    real_write = os.write
+    monkeypatch.setattr(os, "write", lambda fd, data: real_write(fd, bytes(data[:3])))
+    atomic_write_bytes(target, b"a frame written three bytes at a time", fsync=False)
+    assert target.read_bytes() == b"a frame written three bytes at a time"
+
+    def full(fd, data):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(os, "write", full)
+    with pytest.raises(OSError, match="No space"):
+        atomic_write_bytes(target, b"new frame")
+    assert target.read_bytes() == b"a frame written three bytes at a time"
+    assert [p.name for p in tmp_path.iterdir()] == ["frame_000001.vtu"]

@@ -139,7 +139,8 @@ def test_sigkill_at_random_points_then_resume_ends_bit_identical(scene, referenc
 
 class _FullDisk:
     """Writes fail with ENOSPC from the ``after``-th one on, in files whose name
-    contains ``name`` (a frame, the checkpoint, ...), or in CSV rows (``name="csv"``)."""
+    contains ``name`` (a frame, the checkpoint, ...), or in CSV rows (``name="csv"``):
+    at the opening of a file that ``ipcsim.atomic`` creates (``open``, ``os.open``)."""
 
     def __init__(self, monkeypatch, name: str, after: int):
         self.name, self.after, self.count = name, after, 0
@@ -159,6 +160,15 @@ class _FullDisk:
                 raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
             return f
 
+        real_os_open = os.open
+
+        def fake_os_open(path, flags, *args, **kwargs):  # atomic_write_bytes's files
+            fd = real_os_open(path, flags, *args, **kwargs)
+            if flags & os.O_CREAT and self.name != "csv" and fail_now(path):
+                os.close(fd)
+                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+            return fd
+
         def fake_line(log, line):
             if self.name == "csv" and fail_now("csv"):
                 log._file.write(line[: len(line) // 3])  # a part of the row got out
@@ -167,6 +177,7 @@ class _FullDisk:
             real_line(log, line)
 
         monkeypatch.setattr(ipcsim.atomic, "open", fake_open, raising=False)
+        monkeypatch.setattr(os, "open", fake_os_open)
         monkeypatch.setattr(csv_log.CsvLog, "_write_line", fake_line)
 
 
