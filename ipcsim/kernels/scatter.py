@@ -47,3 +47,23 @@ def scatter_stencil_gradients(G, pt_pairs, ee_pairs, n_vertices):
     add_local_gradients(grad, G[:k], pt_pairs)
     add_local_gradients(grad, G[k:], ee_pairs)
     return grad
+
+
+@njit(cache=True)
+def block_matvec(vals, scale, elements, v):
+    """The flat (3n,) product scale·(Σₑ Bₑ) v of a matrix of per-element blocks: entry
+    e·B + nd·i + j of ``vals`` (nd = 3·nv, B = nd², nv = elements.shape[1]) couples DOF
+    3·elements[e, i // 3] + i % 3 with DOF 3·elements[e, j // 3] + j % 3. Each element's
+    block times its vertices' part of v is added in element order (the lagged damping's
+    D·Δx, without building D as a sparse matrix)."""
+    nd = 3 * elements.shape[1]
+    out = np.zeros(v.shape[0])
+    t = 0
+    for e in range(elements.shape[0]):
+        for i in range(nd):
+            total = 0.0
+            for j in range(nd):
+                total += vals[t] * v[3 * elements[e, j // 3] + j % 3]
+                t += 1
+            out[3 * elements[e, i // 3] + i % 3] += scale * total
+    return out

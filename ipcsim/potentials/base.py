@@ -25,6 +25,7 @@ import numpy as np
 
 from ..kernels import assembly as ka
 from ..kernels.assembly import block_triplet_indices
+from ..kernels.scatter import block_matvec
 from ..records import replaced
 
 if TYPE_CHECKING:
@@ -84,7 +85,7 @@ class Triplets:
         return self if w == 1.0 else Triplets(self.rows, self.cols, self.vals, self.scale * w)
 
     def tocsr(self, n_dofs: int) -> "sp.csr_matrix":
-        import scipy.sparse as sp  # only where a term needs the matrix itself (damping)
+        import scipy.sparse as sp  # only for whoever asks for the matrix (tests, checks)
 
         return sp.csr_matrix((self.values, (self.rows, self.cols)), shape=(n_dofs, n_dofs))
 
@@ -285,7 +286,11 @@ class LaggedDamping:
 
     x_start: np.ndarray  # (n, 3) xₙ
     triplets: "ElementHessian"  # D as blocks on the elastic Hessian's pattern, values kept
-    matrix: "sp.csr_matrix"  # D, for the value and the gradient
+
+    def times(self, v: np.ndarray) -> np.ndarray:
+        """D v for a flat (3n,) v, block by block (``kernels/scatter.block_matvec``)."""
+        D = self.triplets
+        return block_matvec(D.vals, float(D.scale), D.elements, v)
 
 
 @dataclass(frozen=True, eq=False)

@@ -29,14 +29,14 @@ class Damping:
     def lag(self, x_start, elastic_hessian: ElementHessian) -> LaggedDamping:
         """D at the start of a step from the elastic term's Hessian there."""
         triplets = elastic_hessian.kept().scaled(self.scale)  # evaluated once per step
-        return LaggedDamping(x_start.copy(), triplets, triplets.tocsr(x_start.size))
+        return LaggedDamping(x_start.copy(), triplets)
 
     def value(self, x, ctx: StepContext):
         dx = (x - ctx.damping.x_start).reshape(-1)
-        return 0.5 * float(dx @ (ctx.damping.matrix @ dx))
+        return 0.5 * float(dx @ ctx.damping.times(dx))
 
     def gradient(self, x, ctx: StepContext):
-        return ctx.damping.matrix @ (x - ctx.damping.x_start).reshape(-1)
+        return ctx.damping.times((x - ctx.damping.x_start).reshape(-1))
 
     def hessian(self, x, ctx: StepContext):
         return ctx.damping.triplets
