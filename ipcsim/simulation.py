@@ -103,6 +103,11 @@ class Simulation:
                                          3 * model.n_vertices)
         self.newton = NewtonSolver(model.solver, self.linear_solver, self.timer,
                                    observer=self._observe)
+        if (getattr(self.linear_solver, "dense", False) and model.constraint_solver is None
+                and model.solver.warm_start != 5):
+            # a dense Newton matrix: the terms are evaluated and added into it together
+            # (warm start 5 reads their triplets, the baselines their sparse Hessian)
+            self.potential = self.potential.fusing()
         self.on_iteration = None  # called with each newton.csv row as it completes (-v)
         self.stiffness = _initial_stiffness(model, self.contact)
         self.state = _initial_state(model, self.stiffness.kappa)

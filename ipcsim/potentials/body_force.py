@@ -12,6 +12,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from ..kernels.simple_terms import body_force_value
 from .base import StepContext, Triplets
 
 
@@ -21,8 +22,12 @@ class BodyForce:
     name: ClassVar[str] = "body force"
     constant_pattern: ClassVar[bool] = False
 
+    def __post_init__(self):
+        # a private writeable copy: the compiled kernels take writeable arrays
+        object.__setattr__(self, "mass", np.array(self.mass, dtype=float))
+
     def value(self, x, ctx: StepContext):
-        return -float(np.einsum("i,ij,ij->", self.mass, ctx.acceleration, x))
+        return body_force_value(self.mass, ctx.acceleration, x)
 
     def gradient(self, x, ctx: StepContext):
         return -(self.mass[:, None] * ctx.acceleration).reshape(-1)

@@ -22,6 +22,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from ..kernels.simple_terms import pull_gradient, pull_value
 from .base import StepContext, Triplets
 
 START_RHO = 1e6  # ρ at the start of a pull (the original's)
@@ -42,20 +43,16 @@ class BoundaryPull:
     def _offset(self, x) -> np.ndarray:
         return x[self.vertices] - self.target
 
+    def _args(self):
+        lam = self.lam if self.lam is not None else np.zeros_like(self.target)
+        return self.vertices, self.mass, self.target, float(self.rho), lam, \
+            self.lam is not None
+
     def value(self, x, ctx: StepContext | None = None) -> float:
-        d = self._offset(x)
-        e = 0.5 * self.rho * float(np.einsum("k,ki,ki->", self.mass, d, d))
-        if self.lam is not None:
-            e -= float(np.einsum("k,ki,ki->", np.sqrt(self.mass), self.lam, d))
-        return e
+        return pull_value(x, *self._args())
 
     def gradient(self, x, ctx: StepContext | None = None) -> np.ndarray:
-        g_k = self.rho * self.mass[:, None] * self._offset(x)
-        if self.lam is not None:
-            g_k -= np.sqrt(self.mass)[:, None] * self.lam
-        g = np.zeros_like(x)
-        g[self.vertices] = g_k
-        return g.reshape(-1)
+        return pull_gradient(x, *self._args())
 
     def hessian(self, x, ctx: StepContext | None = None) -> Triplets:
         dofs = (3 * self.vertices[:, None] + np.arange(3)).reshape(-1)

@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
+from ..kernels.simple_terms import damping_value
 from .base import ElementHessian, LaggedDamping, StepContext
 
 
@@ -32,8 +33,9 @@ class Damping:
         return LaggedDamping(x_start.copy(), triplets)
 
     def value(self, x, ctx: StepContext):
-        dx = (x - ctx.damping.x_start).reshape(-1)
-        return 0.5 * float(dx @ ctx.damping.times(dx))
+        lag = ctx.damping
+        D = lag.triplets
+        return damping_value(x, lag.x_start, D.vals, float(D.scale), D.elements)
 
     def gradient(self, x, ctx: StepContext):
         return ctx.damping.times((x - ctx.damping.x_start).reshape(-1))

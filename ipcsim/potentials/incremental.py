@@ -5,7 +5,10 @@
 with w = h² for backward Euler and β h² for Newmark. Barrier terms are evaluated at unit
 stiffness and scaled by κ here, so that κ can be balanced and doubled without evaluating
 anything again. ``evaluate`` returns every term's value (and gradient and Hessian) at one
-x as a ``TermValues``; the sums at a given κ are taken from it.
+x as a ``TermValues``; the sums at a given κ are taken from it. A potential made
+``fusing()`` evaluates its terms together, one kernel call each for the values, the
+gradients and the Hessians (``fused.py``: the same numbers, a fraction of the calls), for
+small scenes whose Newton matrix is dense.
 """
 
 from __future__ import annotations
@@ -15,7 +18,9 @@ from functools import cached_property
 
 import numpy as np
 
+from ..records import replaced
 from .base import Potential, StepContext, Triplets
+from .fused import FusedTerms
 
 
 @dataclass(frozen=True, eq=False)
@@ -41,10 +46,13 @@ class TermValues:
     x: np.ndarray
     ctx: StepContext
     gradients: tuple[np.ndarray, ...] | None = None
-    hessians: tuple[Triplets, ...] | None = None
+    hessians: tuple[Triplets, ...] | None = None  # None with ``fused``: made at κ
+    fused: FusedTerms | None = None  # the terms evaluated together
 
     @cached_property
     def values(self) -> tuple[float, ...]:
+        if self.fused is not None:
+            return self.fused.values(self.x, self.ctx)
         return tuple(float(t.term.value(self.x, self.ctx)) for t in self.terms)
 
     def energy(self, kappa: float) -> float:
@@ -75,7 +83,11 @@ class TermValues:
 
     def hessian(self, kappa: float) -> tuple[list[Triplets], list[Triplets]]:
         """Weighted PSD triplets split into terms whose sparsity pattern never changes
-        (``constant_pattern``) and the rest (contact, friction)."""
+        (``constant_pattern``) and the rest (contact, friction); fused, one part that
+        adds them all into a dense matrix."""
+        if self.fused is not None:
+            factors = [t.factor(kappa) for t in self.terms]
+            return [self.fused.hessian(self.x, self.ctx, factors)], []
         static, dynamic = [], []
         for t, h in zip(self.terms, self.hessians):
             (static if t.term.constant_pattern else dynamic).append(h.scaled(t.factor(kappa)))
@@ -85,6 +97,18 @@ class TermValues:
 @dataclass(frozen=True, eq=False)
 class IncrementalPotential:
     terms: tuple[WeightedTerm, ...]
+    fused: FusedTerms | None = None  # set by ``fusing``
+
+    def fusing(self) -> "IncrementalPotential":
+        """The same potential with its terms evaluated together (``fused.py``) where they
+        all can be; its Hessians then go into a dense matrix only."""
+        return replaced(self, fused=FusedTerms.of(self.terms))
+
+    def with_term(self, term: WeightedTerm) -> "IncrementalPotential":
+        """This potential plus ``term`` (last), fused if this one is."""
+        terms = self.terms + (term,)
+        return IncrementalPotential(terms, None if self.fused is None
+                                    else FusedTerms.of(terms))
 
     def term(self, name: str) -> Potential | None:
         """The term called ``name`` ("elasticity", "friction", ...), None if absent."""
@@ -93,11 +117,17 @@ class IncrementalPotential:
     def evaluate(self, x: np.ndarray, ctx: StepContext, order: int = 0) -> TermValues:
         """The terms at x: their gradients (order ≥ 1) and Hessians (order 2) now, their
         values when first read (``TermValues.values``)."""
+        if self.fused is not None:
+            gradients = self.fused.gradients(x, ctx) if order >= 1 else None
+            return TermValues(self.terms, x, ctx, gradients, None, self.fused)
         gradients = tuple(t.term.gradient(x, ctx) for t in self.terms) if order >= 1 else None
         hessians = tuple(t.term.hessian(x, ctx) for t in self.terms) if order >= 2 else None
         return TermValues(self.terms, x, ctx, gradients, hessians)
 
     def value(self, x: np.ndarray, ctx: StepContext, kappa: float) -> float:
+        if self.fused is not None:
+            values = self.fused.values(x, ctx)
+            return float(sum(t.factor(kappa) * v for t, v in zip(self.terms, values)))
         return float(sum(t.factor(kappa) * t.term.value(x, ctx) for t in self.terms))
 
     def max_step(self, x: np.ndarray, p: np.ndarray, ctx: StepContext) -> float:

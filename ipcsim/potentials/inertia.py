@@ -8,6 +8,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from ..kernels.simple_terms import inertia_value
 from .base import StepContext, Triplets
 
 
@@ -19,14 +20,14 @@ class Inertia:
     _hessian: Triplets = field(init=False, repr=False)
 
     def __post_init__(self):
-        mass = np.asarray(self.mass, dtype=float)
+        # a private writeable copy: the compiled kernels take writeable arrays
+        mass = np.array(self.mass, dtype=float)
         object.__setattr__(self, "mass", mass)
         dofs = np.arange(3 * len(mass), dtype=np.int32)  # as elasticity's: one kernel variant
         object.__setattr__(self, "_hessian", Triplets(dofs, dofs, np.repeat(mass, 3)))
 
     def value(self, x, ctx: StepContext):
-        dx = x - ctx.x_tilde
-        return 0.5 * float(np.einsum("i,ij,ij->", self.mass, dx, dx))
+        return inertia_value(self.mass, x, ctx.x_tilde)
 
     def gradient(self, x, ctx: StepContext):
         return (self.mass[:, None] * (x - ctx.x_tilde)).reshape(-1)

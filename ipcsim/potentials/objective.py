@@ -261,9 +261,8 @@ class StepObjective:
         if pull is not None:
             self._kinematic = self._kinematic.copy()
             self._kinematic[pull.vertices] = False
-        terms = self._base_potential.terms
         self.potential = (self._base_potential if pull is None
-                          else IncrementalPotential(terms + (WeightedTerm(pull),)))
+                          else self._base_potential.with_term(WeightedTerm(pull)))
         self.revision += 1
 
     @property

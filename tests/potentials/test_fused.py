@@ -1,0 +1,127 @@
+"""The terms evaluated together (potentials/fused.py) give the terms' own numbers, bit for
+bit: every value, every gradient and the dense Newton matrix with its coupling, on
+two small boxes in contact with each other and the ground (friction, damping, a pull,
+prescribed vertices), and whole runs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ipcsim.contact.collisions import build_collisions, swept_collisions
+from ipcsim.model.builder import build_model
+from ipcsim.potentials.base import Triplets
+from ipcsim.potentials.boundary_pull import BoundaryPull
+from ipcsim.potentials.fused import FusedTerms
+from ipcsim.potentials.incremental import IncrementalPotential, WeightedTerm
+from ipcsim.potentials.penalty_contact import PenaltyPlaneContact
+from ipcsim.records import replaced
+from ipcsim.scene import load_scene
+from ipcsim.simulation import Simulation
+from ipcsim.solver.assembly import DenseAssembler
+
+from generated import write_box_msh
+
+SCENE = """shapes input 2
+box.msh 0 0.0005 0  0 0 0  1 1 1
+box.msh 0 0.2012 0  0 0 0  1 1 1
+selfFric 0.2
+ground 0.3 0
+time 1 0.01
+{extra}
+"""
+
+VARIANTS = {
+    "backward Euler, friction": "",
+    "Newmark, damping": "timeIntegration NM\ndampingRatio 0.1",
+}
+
+
+def simulation(tmp_path, extra: str) -> Simulation:
+    write_box_msh(tmp_path / "box.msh", cells=(1, 1, 1))
+    (tmp_path / "scene.txt").write_text(SCENE.format(extra=extra))
+    sim = Simulation(build_model(load_scene(tmp_path / "scene.txt")))
+    assert sim.potential.fused is not None  # 16 vertices: a dense Newton matrix
+    return sim
+
+
+def termwise(potential: IncrementalPotential) -> IncrementalPotential:
+    return IncrementalPotential(potential.terms)
+
+
+def assert_same_numbers(fused: IncrementalPotential, x, ctx, kinematic, kappa):
+    """Values, gradients, the energy at κ and the dense matrix with its coupling."""
+    plain = termwise(fused)
+    a, b = plain.evaluate(x, ctx, 2), fused.evaluate(x, ctx, 2)
+    assert a.values == b.values
+    for ga, gb in zip(a.gradients, b.gradients):
+        assert np.array_equal(ga, gb)
+    assert np.array_equal(a.gradient(kappa), b.gradient(kappa))
+    assert plain.value(x, ctx, kappa) == fused.value(x, ctx, kappa) == b.energy(kappa)
+    free_dofs = ~np.repeat(kinematic, 3)
+    free_index = np.full(free_dofs.size, -1, dtype=np.int64)
+    free_index[free_dofs] = np.arange(int(free_dofs.sum()))
+    p = np.zeros(x.size)
+    p[~free_dofs] = np.random.default_rng(3).normal(size=int((~free_dofs).sum()))
+    n_free = int(free_dofs.sum())
+    A_plain, coupling_plain = DenseAssembler().assemble(*a.hessian(kappa), free_index,
+                                                        n_free, p)
+    A_fused, coupling_fused = DenseAssembler().assemble(*b.hessian(kappa), free_index,
+                                                        n_free, p)
+    assert np.array_equal(A_plain, A_fused) and np.array_equal(coupling_plain, coupling_fused)
+    assert np.count_nonzero(A_plain) > 0
+
+
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_every_number_is_the_terms_own(tmp_path, variant):
+    sim = simulation(tmp_path, VARIANTS[variant])
+    for _ in range(8):  # the boxes settle onto each other and the ground
+        sim.step()
+    objective = sim.objective(sim.state)
+    ctx, contact = objective.ctx, sim.contact
+    x = sim.state.x + 1e-6 * np.random.default_rng(1).normal(size=sim.state.x.shape)
+    at_x = replaced(ctx, collisions=build_collisions(contact.mesh, x, contact.dhat))
+    assert at_x.collisions.may_be_active(contact.dhat)  # the boxes touch
+    assert ctx.friction is not None and ctx.friction.count > 0
+    kinematic = np.zeros(len(x), dtype=bool)
+    kinematic[[0, 5, 11]] = True  # prescribed vertices: their columns go to the coupling
+    kappa = 3.0 * objective.stiffness.kappa
+    assert_same_numbers(sim.potential, x, at_x, kinematic, kappa)
+    # a line search's set: swept over a motion, without distances
+    swept = replaced(ctx, collisions=swept_collisions(contact.mesh, x, x + 1e-4, contact.dhat))
+    assert_same_numbers(sim.potential, x, swept, kinematic, kappa)
+    # a pull of the top box's prescribed vertices, with multipliers
+    top = np.arange(8, 16)
+    pull = BoundaryPull(top, sim.model.mass[top].copy(), x[top] + 1e-3, x[top].copy())
+    pull = pull.stiffer().with_updated_multipliers(x)
+    pulled = sim.potential.with_term(WeightedTerm(pull))
+    assert pulled.fused is not None
+    assert_same_numbers(pulled, x, at_x, kinematic, kappa)
+
+
+def test_runs_are_the_same_with_and_without_fusing(tmp_path, monkeypatch):
+    fused = simulation(tmp_path, VARIANTS["Newmark, damping"])
+    plain = simulation(tmp_path, VARIANTS["Newmark, damping"])
+    plain.potential = termwise(plain.potential)
+    for _ in range(15):
+        rows = fused.step().row, plain.step().row
+        assert rows[0]["newton_iterations"] == rows[1]["newton_iterations"]
+    assert np.array_equal(fused.state.x, plain.state.x)
+    assert np.array_equal(fused.state.v, plain.state.v)
+
+
+def test_a_term_without_a_fused_form_keeps_the_terms_apart(tmp_path):
+    sim = simulation(tmp_path, "")
+    terms = sim.potential.terms
+    planes = next(t.term.planes for t in terms if t.term.name == "plane contact")
+    penalty = WeightedTerm(PenaltyPlaneContact(planes, 1e-3, 1e4))
+    assert FusedTerms.of(terms + (penalty,)) is None
+    assert FusedTerms.of(terms + (terms[0],)) is None  # a kind twice
+    assert sim.potential.with_term(penalty).fused is None
+
+
+def test_the_fused_hessian_is_added_as_one_dense_part(tmp_path):
+    sim = simulation(tmp_path, "")
+    objective = sim.objective(sim.state)
+    static, dynamic = objective.evaluate(sim.state.x, 2).hessian
+    assert len(static) == 1 and dynamic == [] and not isinstance(static[0], Triplets)
