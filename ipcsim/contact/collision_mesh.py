@@ -10,6 +10,7 @@ body and a ``meshCO`` obstacle remain, as in the original.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -65,6 +66,15 @@ class CollisionMesh:
         object.__setattr__(self, "tags", tuple(
             primitive_tags(prims, self.body, self.kinematic)
             for prims in (self.vertices.reshape(-1, 1), self.edges, self.triangles)))
+
+    @cached_property
+    def kernel_arrays(self) -> tuple:
+        """(vertices (v, 1), edges, triangles, tags, self collision, rest positions): the
+        mesh as the broad phase's kernels take it (a mesh made without rest positions
+        has zeros there: no edge–edge mollifier)."""
+        rest = np.zeros((len(self.body), 3)) if self.rest is None else self.rest
+        return (self.vertices.reshape(-1, 1), self.edges, self.triangles, self.tags,
+                bool(self.self_collision), rest)
 
     @staticmethod
     def of(n_vertices: int, vertices, edges, triangles, body=None, kinematic=None,

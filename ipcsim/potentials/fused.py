@@ -11,16 +11,23 @@ fused kernels call the kernels the terms call, in the terms' order, so every val
 gradient and Newton matrix is the one the terms give, bit for bit. The potential
 (``incremental.py``) uses them where the Newton system is dense (``linear.DenseSolver``),
 the only place the dense Hessian fits.
+
+``line_search`` does a Newton direction's line search in one call the same way
+(``kernels/fused_line_search.py``): the terms' step bounds, the mesh's sweep and CCD,
+and the backtracking on these energies, as ``StepObjective.max_step`` and
+``NewtonSolver._line_search`` do it.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
 
 from ..kernels import fused_terms as kf
+from ..kernels.ccd import DEFAULT_MAX_ITERATIONS, DEFAULT_MIN_GAP_FRACTION
+from ..kernels.fused_line_search import line_search as fused_line_search
 from .base import StepContext, Triplets
 from .body_force import BodyForce
 from .boundary_pull import BoundaryPull
@@ -29,7 +36,7 @@ from .elasticity import Elasticity
 from .friction import Friction
 from .inertia import Inertia
 from .mesh_contact import MeshContact
-from .plane_contact import PlaneContact
+from .plane_contact import CCD_KEEP_FRACTION, PlaneContact
 
 _KIND = {Inertia: kf.INERTIA, BodyForce: kf.BODY_FORCE, Elasticity: kf.ELASTICITY,
          Damping: kf.DAMPING, PlaneContact: kf.PLANE_CONTACT, MeshContact: kf.MESH_CONTACT,
@@ -63,12 +70,17 @@ class FusedTerms:
     """The terms of a potential, by kind: ``kinds[i]`` is the kind of the i-th term,
     ``present`` (N_KINDS,) which kinds there are, ``terms`` the term of each kind (None
     where absent) and ``fixed`` each kind's data tuple as far as it does not depend on
-    the step context (``_data`` fills in the rest)."""
+    the step context (``_data`` fills in the rest); ``weighing`` (kinds, weights, scaled
+    by κ) as arrays in the terms' order and ``bounds`` (NH inversion bound, its volume
+    ratio, the planes' CCD keep fraction) for the line search."""
 
     kinds: tuple[int, ...]
     present: np.ndarray
     terms: tuple
     fixed: tuple
+    weighing: tuple
+    bounds: tuple
+    _last: dict = field(default_factory=dict, repr=False)  # the last context's data
 
     @staticmethod
     def of(weighted_terms) -> "FusedTerms | None":
@@ -100,10 +112,19 @@ class FusedTerms:
             fixed[kf.PULL] = (_writeable(pull.vertices, np.int64), _writeable(pull.mass),
                               _writeable(pull.target), float(pull.rho), lam,
                               pull.lam is not None)
-        return FusedTerms(kinds, present, tuple(terms), tuple(fixed))
+        weighing = (np.array(kinds, dtype=np.int64),
+                    np.array([t.weight for t in weighted_terms], dtype=float),
+                    np.array([t.barrier for t in weighted_terms], dtype=np.bool_))
+        elasticity = terms[kf.ELASTICITY]
+        nh = elasticity is not None and elasticity.energy == "NH"
+        bounds = (nh, elasticity.min_volume_ratio if nh else 0.0, CCD_KEEP_FRACTION)
+        return FusedTerms(kinds, present, tuple(terms), tuple(fixed), weighing, bounds)
 
     def _data(self, ctx: StepContext) -> tuple:
-        """The eight kinds' data tuples in this context."""
+        """The eight kinds' data tuples in this context (kept for the next call with
+        the same context: a Newton iteration asks three or four times)."""
+        if self._last.get("ctx") is ctx:
+            return self._last["data"]
         data = list(self.fixed)
         present = self.present
         if present[kf.INERTIA]:
@@ -123,7 +144,8 @@ class FusedTerms:
             if lag is not None and lag.count:
                 data[kf.FRICTION] = (lag.x_start, lag.verts, lag.coeffs, lag.basis,
                                      lag.weight, term.eps, bool(term.project), lag.offsets)
-        return tuple(data)
+        self._last.update(ctx=ctx, data=tuple(data))
+        return self._last["data"]
 
     def values(self, x, ctx: StepContext) -> tuple[float, ...]:
         """Each term's value at x, in the terms' order."""
@@ -135,10 +157,12 @@ class FusedTerms:
         out = kf.term_gradients(_writeable(x), self.present, *self._data(ctx))
         return tuple(out[k] for k in self.kinds)
 
-    def hessian(self, x, ctx: StepContext, factors) -> "FusedHessian":
-        """Σ factors[i]·(the i-th term's Hessian) at x, to be added into a dense matrix."""
+    def hessian(self, x, ctx: StepContext, kappa: float) -> "FusedHessian":
+        """Σ (the i-th term's weight, times κ for barriers)·(its Hessian) at x, to be
+        added into a dense matrix."""
+        kinds, weights, barrier = self.weighing
         by_kind = np.zeros(kf.N_KINDS)
-        by_kind[list(self.kinds)] = factors
+        by_kind[kinds] = np.where(barrier, weights * kappa, weights)
         data = self._data(ctx)
         return FusedHessian(_writeable(x).copy(), self.present, by_kind,
                             data[:kf.BODY_FORCE] + data[kf.ELASTICITY:])
@@ -190,3 +214,41 @@ class FusedHessian:
 
     def tocsr(self, n_dofs: int):
         return self._triplets.tocsr(n_dofs)
+
+
+_NO_MESH = (np.zeros((0, 1), dtype=np.int64), np.zeros((0, 2), dtype=np.int64),
+            np.zeros((0, 3), dtype=np.int64), (np.zeros((0, 2), dtype=np.int64),) * 3, False,
+            _NO_POINTS, False)
+
+
+@dataclass(frozen=True, eq=False)
+class LineSearchResult:
+    """What ``line_search`` found (``kernels/fused_line_search.py``)."""
+
+    x_new: np.ndarray
+    alpha: float
+    energy: float  # E(x_new); E(x) when it failed
+    failed: bool  # no step along p lowered E
+    e0: float  # E(x)
+    ccd_alpha: float  # mesh CCD's α (1 without mesh contact)
+    swept: tuple  # (pt, ee, ε_x, pt ids, ee ids): the pairs met along the step
+
+
+def line_search(fused: FusedTerms, x, p3, kappa: float, ctx: StepContext, mesh,
+                prescribed, search) -> LineSearchResult:
+    """The feasible step along p3 and E's decrease along it in one kernel call:
+    ``mesh`` a ``CollisionMesh`` or None, ``prescribed`` (kinematic (n,), targets,
+    motion remaining), ``search`` (d̂, previous CCD α, E(x) or None, prescribed motion
+    complete, halvings)."""
+    dhat, previous_alpha, e0, complete, halvings = search
+    kinematic, target, remaining = prescribed
+    out = fused_line_search(
+        _writeable(x), _writeable(p3), fused.present, *fused.weighing, float(kappa),
+        fused._data(ctx), _NO_MESH if mesh is None else mesh.kernel_arrays + (True,),
+        fused.bounds,
+        (_writeable(kinematic, np.bool_), _writeable(target), float(remaining)),
+        (float(dhat), float(previous_alpha), np.nan if e0 is None else float(e0),
+         bool(complete), int(halvings), DEFAULT_MIN_GAP_FRACTION, DEFAULT_MAX_ITERATIONS))
+    x_new, alpha, energy, failed, e0, ccd_alpha = out[:6]
+    return LineSearchResult(x_new, float(alpha), float(energy), bool(failed), float(e0),
+                            float(ccd_alpha), tuple(out[6:]))

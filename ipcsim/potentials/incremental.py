@@ -86,8 +86,7 @@ class TermValues:
         (``constant_pattern``) and the rest (contact, friction); fused, one part that
         adds them all into a dense matrix."""
         if self.fused is not None:
-            factors = [t.factor(kappa) for t in self.terms]
-            return [self.fused.hessian(self.x, self.ctx, factors)], []
+            return [self.fused.hessian(self.x, self.ctx, kappa)], []
         static, dynamic = [], []
         for t, h in zip(self.terms, self.hessians):
             (static if t.term.constant_pattern else dynamic).append(h.scaled(t.factor(kappa)))

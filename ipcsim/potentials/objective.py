@@ -42,6 +42,8 @@ from ..contact.stiffness import BarrierStiffness
 from ..records import replaced
 from .base import StepContext, Triplets
 from .boundary_pull import BoundaryPull, PullSchedule
+from .fused import LineSearchResult
+from .fused import line_search as fused_line_search
 from .incremental import IncrementalPotential, TermValues, WeightedTerm
 
 
@@ -210,6 +212,26 @@ class StepObjective:
                 alpha = min(alpha, bound.alpha)
                 ctx = replaced(ctx, collisions=bound.collisions)
         return LineSearch(self, x, p3, alpha, ctx)
+
+    def line_search(self, x: np.ndarray, p: np.ndarray, remaining: float, energy,
+                    complete: bool, halvings: int) -> LineSearchResult | None:
+        """``max_step`` and Newton's search along it in one kernel call where the
+        potential is fused (``fused.line_search``: the same steps and energies, bit for
+        bit), None elsewhere. The pairs swept go with the point taken, as ``point``'s."""
+        fused = self.potential.fused
+        if fused is None:
+            return None
+        mesh = self.contact.mesh
+        with self.timer("ccd_line_search"):
+            found = fused_line_search(
+                fused, x, p.reshape(-1, 3), self.stiffness.kappa, self.ctx, mesh,
+                (self.kinematic, self.target, remaining),
+                (self.contact.dhat, self.last_ccd_alpha, energy, complete, halvings))
+        if mesh is not None:
+            self.last_ccd_alpha = found.ccd_alpha
+            if not found.failed:
+                self.took(found.x_new, Collisions(*found.swept[:3], None, *found.swept[3:]))
+        return found
 
     def _snap_reach(self, x: np.ndarray) -> float:
         k = self.kinematic

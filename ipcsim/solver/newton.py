@@ -222,6 +222,10 @@ class NewtonSolver:
     def _line_search(self, objective, x, p, remaining, energy, run: _Progress, it: int):
         """(x_new, α, E(x_new), failed): the feasible step along p, halved until E
         decreases once the prescribed motion is complete."""
+        fused = objective.line_search(x, p, remaining, energy, run.kinematic_complete,
+                                      self.settings.max_halvings)
+        if fused is not None:  # the same search in one call (a small scene)
+            return self._checked(objective, x, p, fused, run, it)
         line = objective.max_step(x, p)
         alpha = line.max_alpha
         if not alpha >= 0.0:  # NaN: a bound (CCD, inversion) saw a non-finite input
@@ -239,6 +243,19 @@ class NewtonSolver:
             if not np.isfinite(energy):
                 raise NonFiniteError("energy", objective.nonfinite_terms(x_new), it)
         return x_new, alpha, energy, False
+
+    def _checked(self, objective, x, p, found, run: _Progress, it: int):
+        """``_line_search``'s result from a fused search, with its checks."""
+        if not found.alpha >= 0.0:
+            raise NonFiniteError("step bound", objective.nonfinite_terms(x, p), it)
+        if run.kinematic_complete:
+            if not np.isfinite(found.e0):
+                raise NonFiniteError("energy", objective.nonfinite_terms(x), it)
+            if found.failed:
+                return x, 0.0, found.e0, True
+        elif not np.isfinite(found.energy):
+            raise NonFiniteError("energy", objective.nonfinite_terms(found.x_new), it)
+        return found.x_new, found.alpha, found.energy, False
 
     def _backtrack(self, line, alpha, e0, it: int):
         """Halve α until E(x + αp) < E(x). Returns (α, True if it gave up, E at the point

@@ -14,6 +14,7 @@ from ipcsim.potentials.base import Triplets
 from ipcsim.potentials.boundary_pull import BoundaryPull
 from ipcsim.potentials.fused import FusedTerms
 from ipcsim.potentials.incremental import IncrementalPotential, WeightedTerm
+from ipcsim.potentials.objective import StepObjective
 from ipcsim.potentials.penalty_contact import PenaltyPlaneContact
 from ipcsim.records import replaced
 from ipcsim.scene import load_scene
@@ -99,15 +100,56 @@ def test_every_number_is_the_terms_own(tmp_path, variant):
     assert_same_numbers(pulled, x, at_x, kinematic, kappa)
 
 
-def test_runs_are_the_same_with_and_without_fusing(tmp_path, monkeypatch):
-    fused = simulation(tmp_path, VARIANTS["Newmark, damping"])
-    plain = simulation(tmp_path, VARIANTS["Newmark, damping"])
+DRIVEN = """shapes input 2
+box.msh 0 0.0005 0  0 0 0  1 1 1
+box.msh 0 0.2012 0  0 0 0  1 1 1  DBC -0.1 0.9 -0.1  1.1 1.1 1.1  {velocity}  0 0 0
+selfFric 0.2
+ground 0.3 0
+time 1 0.01
+"""
+
+PRESCRIBED = {
+    # the free vertices of the top box pressed onto the bottom one: CCD cuts the steps
+    "top face driven down": DRIVEN.format(velocity="0 -1 0"),
+    # the prescribed vertices land exactly on their targets
+    "top face driven sideways": DRIVEN.format(velocity="0.5 0 0"),
+    # CCD stops the prescribed vertices at the ground, and the pull takes over
+    "bottom face driven into the ground": """shapes input 1
+box.msh 0 0.0005 0  0 0 0  1 1 1  DBC -0.1 -0.1 -0.1  1.1 0.1 1.1  0 -1 0  0 0 0
+ground 0.2 0
+time 1 0.01
+""",
+}
+
+
+@pytest.mark.parametrize("variant", [*VARIANTS, *PRESCRIBED])
+def test_runs_are_the_same_with_and_without_fusing(tmp_path, monkeypatch, variant):
+    """Whole steps: the fused terms and the fused line search against the terms one by
+    one and the line search in Python."""
+    if variant in VARIANTS:
+        fused, plain = (simulation(tmp_path, VARIANTS[variant]) for _ in range(2))
+    else:
+        write_box_msh(tmp_path / "box.msh", cells=(1, 1, 1))
+        (tmp_path / "scene.txt").write_text(PRESCRIBED[variant])
+        fused, plain = (Simulation(build_model(load_scene(tmp_path / "scene.txt")))
+                        for _ in range(2))
     plain.potential = termwise(plain.potential)
-    for _ in range(15):
-        rows = fused.step().row, plain.step().row
-        assert rows[0]["newton_iterations"] == rows[1]["newton_iterations"]
+    assert fused.potential.fused is not None and plain.potential.fused is None
+    pulls = []
+    start_pull = StepObjective._start_pull
+    monkeypatch.setattr(StepObjective, "_start_pull",
+                        lambda self, x: (pulls.append(self), start_pull(self, x))[1])
+    alphas = []
+    for _ in range(12):
+        reports = fused.step(), plain.step()
+        assert reports[0].newton == reports[1].newton  # every iteration's α, E, contacts
+        alphas += [row["alpha"] for row in reports[0].newton]
     assert np.array_equal(fused.state.x, plain.state.x)
     assert np.array_equal(fused.state.v, plain.state.v)
+    if variant == "top face driven down":
+        assert min(alphas) < 0.5  # CCD cut steps: the next sweep goes over [0, 2α] first
+    if variant == "bottom face driven into the ground":
+        assert any(p.revision for p in pulls)  # a pull acted
 
 
 def test_a_term_without_a_fused_form_keeps_the_terms_apart(tmp_path):
