@@ -21,7 +21,8 @@ own cost was most of the line search's. Arguments, besides x (n, 3) and p (n, 3)
                               motion complete, halvings, CCD gap fraction, CCD
                               iterations)
 
-Returns (x_new, α, E(x_new), failed, E(x), CCD's α, the swept pairs pt, ee, ε_x and
+Returns (x_new, α, E(x_new), failed, E(x), CCD's α, the terms' values by kind at the
+point returned (NaN where it was not evaluated here), the swept pairs pt, ee, ε_x and
 their ids, ``contact.collisions.pair_ids``).
 """
 
@@ -42,14 +43,14 @@ from .twin import kernel
 
 @kernel()
 def _energy(y, present, kinds, factors, terms):
-    """Σ factors[i]·value of term i at y, summed in the terms' order
-    (``IncrementalPotential.value``)."""
+    """(Σ factors[i]·value of term i at y, summed in the terms' order as
+    ``IncrementalPotential.value`` sums it; the values by kind)."""
     values = term_values(y, present, terms[0], terms[1], terms[2], terms[3], terms[4],
                          terms[5], terms[6], terms[7])
     total = 0.0
     for i in range(kinds.shape[0]):
         total += factors[i] * values[kinds[i]]
-    return total
+    return total, values
 
 
 @kernel()
@@ -131,14 +132,16 @@ def line_search(x, p3, present, kinds, weights, barrier, kappa, terms, mesh, bou
              (pt, ee, eps_x, m[3], pt.shape[0] + ee.shape[0] > 0), terms[6], terms[7])
     failed = False
     energy = math.nan
+    values = np.full(N_KINDS, np.nan)  # the terms' values at the point taken, if known
     if not alpha >= 0.0:  # NaN: the caller names the term
-        return x, alpha, energy, failed, e0, ccd_alpha, pt, ee, eps_x, pt_id, ee_id
+        return x, alpha, energy, failed, e0, ccd_alpha, values, pt, ee, eps_x, pt_id, ee_id
     if complete:
         # halve α until E decreases (``NewtonSolver._backtrack``)
         if math.isnan(e0):
-            e0 = _energy(x + 0.0 * p3, present, kinds, factors, swept)
+            e0, values = _energy(x + 0.0 * p3, present, kinds, factors, swept)
         if not np.isfinite(e0):
-            return x, alpha, e0, failed, e0, ccd_alpha, pt, ee, eps_x, pt_id, ee_id
+            return x, alpha, e0, failed, e0, ccd_alpha, values, pt, ee, eps_x, pt_id, ee_id
+        values_at_x = values
         p_max = 0.0
         for v in p3.reshape(-1):
             p_max = max(p_max, abs(v))
@@ -147,7 +150,7 @@ def line_search(x, p3, present, kinds, weights, barrier, kappa, terms, mesh, bou
             x_max = max(x_max, abs(v))
         failed = True
         for _ in range(halvings):
-            e = _energy(x + alpha * p3, present, kinds, factors, swept)
+            e, values = _energy(x + alpha * p3, present, kinds, factors, swept)
             if e < e0:
                 failed = False
                 energy = e
@@ -156,7 +159,8 @@ def line_search(x, p3, present, kinds, weights, barrier, kappa, terms, mesh, bou
                 break  # ``LineSearch.below_roundoff``
             alpha *= 0.5
         if failed:
-            return x, 0.0, e0, failed, e0, ccd_alpha, pt, ee, eps_x, pt_id, ee_id
+            return (x, 0.0, e0, failed, e0, ccd_alpha, values_at_x, pt, ee, eps_x, pt_id,
+                    ee_id)
     x_new = x + alpha * p3
     if alpha == 1.0 and remaining > 0.0:  # land exactly on the targets
         x_new = x + p3
@@ -165,8 +169,8 @@ def line_search(x, p3, present, kinds, weights, barrier, kappa, terms, mesh, bou
                 for a in range(3):
                     x_new[i, a] = target[i, a]
     if not complete:
-        energy = _energy(x_new, present, kinds, factors, swept)
-    return x_new, alpha, energy, failed, e0, ccd_alpha, pt, ee, eps_x, pt_id, ee_id
+        energy, values = _energy(x_new, present, kinds, factors, swept)
+    return x_new, alpha, energy, failed, e0, ccd_alpha, values, pt, ee, eps_x, pt_id, ee_id
 
 
 assert N_KINDS == 8  # the tuples above list the kinds one by one

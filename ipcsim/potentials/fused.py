@@ -231,6 +231,7 @@ class LineSearchResult:
     failed: bool  # no step along p lowered E
     e0: float  # E(x)
     ccd_alpha: float  # mesh CCD's α (1 without mesh contact)
+    values: tuple | None  # each term's value at the point returned (None: not evaluated)
     swept: tuple  # (pt, ee, ε_x, pt ids, ee ids): the pairs met along the step
 
 
@@ -249,6 +250,8 @@ def line_search(fused: FusedTerms, x, p3, kappa: float, ctx: StepContext, mesh,
         (_writeable(kinematic, np.bool_), _writeable(target), float(remaining)),
         (float(dhat), float(previous_alpha), np.nan if e0 is None else float(e0),
          bool(complete), int(halvings), DEFAULT_MIN_GAP_FRACTION, DEFAULT_MAX_ITERATIONS))
-    x_new, alpha, energy, failed, e0, ccd_alpha = out[:6]
+    x_new, alpha, energy, failed, e0, ccd_alpha, by_kind = out[:7]
+    values = None if np.isnan(by_kind[fused.kinds[0]]) else \
+        tuple(float(by_kind[k]) for k in fused.kinds)
     return LineSearchResult(x_new, float(alpha), float(energy), bool(failed), float(e0),
-                            float(ccd_alpha), tuple(out[6:]))
+                            float(ccd_alpha), values, tuple(out[7:]))

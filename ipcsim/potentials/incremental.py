@@ -48,9 +48,12 @@ class TermValues:
     gradients: tuple[np.ndarray, ...] | None = None
     hessians: tuple[Triplets, ...] | None = None  # None with ``fused``: made at κ
     fused: FusedTerms | None = None  # the terms evaluated together
+    known: tuple[float, ...] | None = None  # the values, where a line search gave them
 
     @cached_property
     def values(self) -> tuple[float, ...]:
+        if self.known is not None:
+            return self.known
         if self.fused is not None:
             return self.fused.values(self.x, self.ctx)
         return tuple(float(t.term.value(self.x, self.ctx)) for t in self.terms)

@@ -150,6 +150,8 @@ class StepObjective:
         self._collisions_at = collisions_at
         # (y, swept set): the last point Newton took along a line search, and its pairs
         self._on_segment: tuple[np.ndarray, Collisions | None] | None = None
+        # (y, κ, revision, the terms' values at y) from the last fused line search
+        self._values_at: tuple | None = None
 
     # -- what Newton reads -----------------------------------------------------------------
     @property
@@ -175,6 +177,10 @@ class StepObjective:
         with self.timer("energy"):
             values = self.potential.evaluate(x, self.ctx, order)
             if order == 0:
+                known = self._values_at
+                if known is not None and known[0] is x and known[1:3] == (
+                        self.stiffness.kappa, self.revision):
+                    values = replaced(values, known=known[3])  # the line search's
                 values.values  # read at once: what order 0 is asked for
         if order == 2 and adapt:
             self._adapt_stiffness(values, contacts)
@@ -231,6 +237,9 @@ class StepObjective:
             self.last_ccd_alpha = found.ccd_alpha
             if not found.failed:
                 self.took(found.x_new, Collisions(*found.swept[:3], None, *found.swept[3:]))
+        if found.values is not None:  # what evaluate(·, 0) at that point would sum again
+            self._values_at = (x if found.failed else found.x_new, self.stiffness.kappa,
+                               self.revision, found.values)
         return found
 
     def _snap_reach(self, x: np.ndarray) -> float:

@@ -167,3 +167,16 @@ def test_the_fused_hessian_is_added_as_one_dense_part(tmp_path):
     objective = sim.objective(sim.state)
     static, dynamic = objective.evaluate(sim.state.x, 2).hessian
     assert len(static) == 1 and dynamic == [] and not isinstance(static[0], Triplets)
+
+
+def test_a_steps_final_energy_comes_from_its_line_search(tmp_path, monkeypatch):
+    """The terms' values at the point a step ends are the line search's: Newton's final
+    evaluation does not compute them again (nor, so, do the logs' energies differ)."""
+    sim = simulation(tmp_path, VARIANTS["backward Euler, friction"])
+    calls = []
+    values = FusedTerms.values
+    monkeypatch.setattr(FusedTerms, "values",
+                        lambda self, x, ctx: (calls.append(1), values(self, x, ctx))[1])
+    rows = [sim.step().row for _ in range(10)]
+    assert len(calls) == 0
+    assert all(np.isfinite(r["energy"]) and r["elastic_energy"] >= 0.0 for r in rows)
