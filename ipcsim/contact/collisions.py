@@ -18,7 +18,7 @@ from functools import cached_property
 import numpy as np
 
 from ..kernels.broad_phase import swept_pairs_within
-from ..kernels.contact_barrier import classify_and_distance
+from ..kernels.contact_barrier import classify_and_distance, near_pairs
 from ..kernels.mollifier import edge_edge_mollifier_thresholds
 from .candidates import find_candidates
 from .collision_mesh import CollisionMesh
@@ -140,6 +140,10 @@ def narrowed_collisions(swept: Collisions, x: np.ndarray, dhat: float) -> Collis
     swept boxes hold x's boxes, so the pairs whose boxes overlap at x are all there, and
     the same box test keeps exactly those, without a new BVH query. Only the order of
     the pairs may differ from a fresh query's."""
+    if swept.pt_id is not None and swept.ee_id is not None:  # one kernel call
+        pt, ee, eps_x, pt_id, ee_id, *distances = near_pairs(
+            x, swept.pt, swept.ee, swept.ee_eps_x, swept.pt_id, swept.ee_id, dhat)
+        return Collisions(pt, ee, eps_x, PairDistances(*distances), pt_id, ee_id)
     near = swept.within_motion(x, x, dhat)
     return Collisions(near.pt, near.ee, near.ee_eps_x,
                       PairDistances(*classify_and_distance(x, near.pt, near.ee)),

@@ -265,7 +265,7 @@ def _advance_serial(x0, x1, stencils, n_pt, state, active, params):
 
 
 @njit(cache=True)
-def _max_step_serial(x0, x1, stencils, n_pt, f, max_iterations):
+def max_step_serial(x0, x1, stencils, n_pt, f, max_iterations):
     # ccd_max_step's rounds on one thread in one call (a tiny scene sweeps its few pairs
     # every Newton iteration: the rounds' array work in Python cost more than the queries)
     n = stencils.shape[0]
@@ -365,13 +365,13 @@ def ccd_max_step(x0, x1, pt_pairs, ee_pairs, min_gap_fraction=DEFAULT_MIN_GAP_FR
         return 1.0
     f = float(min_gap_fraction)
     if not _in_parallel(stencils.shape[0]):
-        return _max_step_serial(x0, x1, stencils, n_pt, f, int(max_iterations))
+        return max_step_serial(x0, x1, stencils, n_pt, f, int(max_iterations))
     return _max_step_rounds(x0, x1, stencils, n_pt, f, max_iterations)
 
 
 def _max_step_rounds(x0, x1, stencils, n_pt, f, max_iterations):
     """ccd_max_step's rounds, each a kernel launch over the queries still running (the
-    parallel ones on many threads); ``_max_step_serial`` runs the same rounds in one call."""
+    parallel ones on many threads); ``max_step_serial`` runs the same rounds in one call."""
     state = _init(x0, x1, stencils, n_pt)
     alpha = 1.0
     budget = 8

@@ -22,6 +22,7 @@ import numpy as np
 from ipcsim.kernels.jit import njit, prange
 
 from ipcsim.kernels.assembly import block_triplet_indices
+from ipcsim.kernels.broad_phase import swept_pairs_within
 from ipcsim.kernels.barrier import barrier, barrier_and_derivatives
 from ipcsim.kernels.distance import (
     EE_FEATURES,
@@ -300,6 +301,21 @@ def classify_and_distance(x, pt_pairs, ee_pairs):
     for i in prange(j):
         ee_type[i], ee_d2[i] = _ee_classify(x, ee_pairs[i])
     return pt_type, pt_d2, ee_type, ee_d2
+
+
+@kernel()
+def near_pairs(x, pt_pairs, ee_pairs, ee_eps_x, pt_id, ee_id, inflation):
+    """The pairs whose boxes at x, grown by inflation/2, overlap (the broad phase's test,
+    ``broad_phase.swept_pairs_within`` over no motion), in their order, with their
+    thresholds and ids, and each kept pair's closest-feature type and squared distance
+    at x: (pt, ee, ε_x, pt ids, ee ids, pt types, pt d², ee types, ee d²)."""
+    keep_pt = swept_pairs_within(x, x, pt_pairs, 1, inflation)
+    keep_ee = swept_pairs_within(x, x, ee_pairs, 2, inflation)
+    pt = pt_pairs[keep_pt]
+    ee = ee_pairs[keep_ee]
+    pt_type, pt_d2, ee_type, ee_d2 = classify_and_distance(x, pt, ee)
+    return (pt, ee, ee_eps_x[keep_ee], pt_id[keep_pt], ee_id[keep_ee], pt_type, pt_d2,
+            ee_type, ee_d2)
 
 
 @kernel(parallel=True, error_model="numpy")

@@ -33,7 +33,7 @@ import math
 import numpy as np
 
 from .broad_phase import candidate_pairs, swept_pairs_within
-from .ccd import _max_step_serial
+from .ccd import max_step_serial
 from .elasticity import max_step_no_inversion
 from .fused_terms import ELASTICITY, MESH_CONTACT, N_KINDS, PLANE_CONTACT, term_values
 from .mollifier import edge_edge_mollifier_thresholds
@@ -70,7 +70,7 @@ def _sweep(x, p3, beta, mesh, inflation, gap_fraction, ccd_iterations):
     stencils = np.empty((pt.shape[0] + ee.shape[0], 4), dtype=np.int64)
     stencils[:pt.shape[0]] = pt
     stencils[pt.shape[0]:] = ee
-    alpha = beta * _max_step_serial(x, x1, stencils, pt.shape[0], gap_fraction,
+    alpha = beta * max_step_serial(x, x1, stencils, pt.shape[0], gap_fraction,
                                     ccd_iterations)
     if alpha < beta:
         x_alpha = x + alpha * p3

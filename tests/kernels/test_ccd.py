@@ -662,7 +662,7 @@ def test_max_step_over_batches(queries):
 
 
 def test_serial_rounds_in_one_call_equal_the_launched_rounds(queries):
-    """``_max_step_serial`` (the rounds inside one kernel, what a serial run calls) gives
+    """``max_step_serial`` (the rounds inside one kernel, what a serial run calls) gives
     bit for bit the α of ``_max_step_rounds`` (a launch per round, the parallel path), on
     whole families, random subsets, batches of PT and EE queries, and with small iteration caps."""
     rng = np.random.default_rng(7)
@@ -678,7 +678,7 @@ def test_serial_rounds_in_one_call_equal_the_launched_rounds(queries):
             stencils = np.ascontiguousarray(st[sub])
             for cap in (ccd.DEFAULT_MAX_ITERATIONS, 3, 40):
                 ref = ccd._max_step_rounds(x0, x1, stencils, n_pt, 0.1, cap)
-                got = ccd._max_step_serial(x0, x1, stencils, n_pt, 0.1, cap)
+                got = ccd.max_step_serial(x0, x1, stencils, n_pt, 0.1, cap)
                 assert got == ref, (name, cap)
                 compared += 1
     assert compared > 50
