@@ -47,27 +47,17 @@ def lag_friction(x_lag, x_start, collisions: Collisions | None, planes: Planes |
     """Freeze normal forces, closest points and tangent bases at x_lag (n, 3); pairs
     inactive at x_lag are dropped and nothing is built for μ = 0."""
     x_lag = np.ascontiguousarray(x_lag, dtype=float).reshape(-1, 3)
-    s_hat = float(dhat) ** 2
-    parts = []
-    if mu_mesh > 0.0 and collisions is not None and collisions.may_be_active(dhat):
-        keep, v, c, b, lam = kf.lag_mesh_pairs(x_lag, collisions.pt, collisions.ee,
-                                               collisions.ee_eps_x, s_hat, float(kappa))
-        parts.append((v[keep], c[keep], b[keep], float(mu_mesh) * lam[keep]))
-    if planes is not None and len(planes.vertices):
-        use = planes.friction > 0.0
-        if np.any(use) and planes.count(x_lag, dhat)[0] > 0:
-            origins = np.ascontiguousarray(planes.origins[use])
-            normals = np.ascontiguousarray(planes.normals[use])
-            pl, v, c, b, lam = kf.lag_plane_pairs(x_lag, planes.vertices, origins, normals,
-                                                  s_hat, float(kappa))
-            parts.append((v, c, b, planes.friction[use][pl] * lam))
+    if collisions is None:
+        collisions = Collisions.empty()
+    mesh = (collisions.pt, collisions.ee, collisions.ee_eps_x, float(mu_mesh),
+            bool(mu_mesh > 0.0 and collisions.may_be_active(dhat)))
+    if planes is None:
+        planes = _NO_PLANES
+    lagged = kf.lag_pairs(x_lag, mesh, (planes.vertices, planes.origins, planes.normals,
+                                         planes.friction), float(dhat) ** 2, float(kappa))
     x_start = np.ascontiguousarray(x_start, dtype=float).reshape(-1, 3).copy()
-    if not parts:
-        return FrictionLag(x_start, np.zeros((0, 4), dtype=np.int64), np.zeros((0, 4)),
-                           np.zeros((0, 3, 2)), np.zeros(0), np.zeros(1, dtype=np.int64))
-    verts = np.ascontiguousarray(np.concatenate([p[0] for p in parts]))
-    return FrictionLag(x_start, verts,
-                       np.ascontiguousarray(np.concatenate([p[1] for p in parts])),
-                       np.ascontiguousarray(np.concatenate([p[2] for p in parts])),
-                       np.ascontiguousarray(np.concatenate([p[3] for p in parts])),
-                       kf.triplet_offsets(verts))
+    return FrictionLag(x_start, *lagged)
+
+
+_NO_PLANES = Planes(np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros((0, 3)),
+                    np.zeros(0))

@@ -49,6 +49,7 @@ from ipcsim.kernels.distance import (
 from ipcsim.kernels.linalg import cross3, dot3, ordered_sum, scale3, squared_norm3, sub3
 from ipcsim.kernels.mollifier import edge_edge_cross_sq
 from ipcsim.kernels.scatter import scatter_local_gradients
+from ipcsim.kernels.plane_contact import plane_active_count_and_min_distance
 from ipcsim.kernels.twin import kernel
 
 
@@ -241,6 +242,33 @@ def lag_plane_pairs(x_lag, vertices, origins, normals, s_hat, kappa):
             lam[i] = -kappa * barrier_first_derivative(da * da, s_hat) * 2.0 * da
             i += 1
     return plane, verts, coeffs, basis, lam
+
+
+@kernel(error_model="numpy")
+def lag_pairs(x_lag, mesh, planes, s_hat, kappa):
+    """Every frictional pair's lagged data at x_lag: the mesh's active pairs, then the
+    vertex–plane pairs of the planes with μ > 0 if any vertex is within d̂ of any plane
+    (``contact.friction_lag.lag_friction``). ``mesh`` = (pt, ee, ε_x, μ, whether any pair
+    may be within d̂), ``planes`` = (vertices, origins, normals, μ per plane). Returns
+    (verts (f, 4), coeffs (f, 4), basis (f, 3, 2), μλ (f,), triplet offsets (f + 1,))."""
+    pt, ee, eps_x, mu_mesh, mesh_active = mesh
+    vertices, origins, normals, mu_planes = planes
+    verts, coeffs = np.empty((0, 4), dtype=np.int64), np.empty((0, 4))
+    basis, weight = np.empty((0, 3, 2)), np.empty(0)
+    if mu_mesh > 0.0 and mesh_active:
+        keep, v, c, b, lam = lag_mesh_pairs(x_lag, pt, ee, eps_x, s_hat, kappa)
+        verts, coeffs, basis = v[keep], c[keep], b[keep]
+        weight = mu_mesh * lam[keep]
+    use = mu_planes > 0.0
+    if vertices.shape[0] > 0 and use.any() and \
+            plane_active_count_and_min_distance(x_lag, vertices, origins, normals, s_hat)[0] > 0:
+        plane, v, c, b, lam = lag_plane_pairs(x_lag, vertices, origins[use], normals[use],
+                                              s_hat, kappa)
+        verts = np.concatenate((verts, v))
+        coeffs = np.concatenate((coeffs, c))
+        basis = np.concatenate((basis, b))
+        weight = np.concatenate((weight, mu_planes[use][plane] * lam))
+    return verts, coeffs, basis, weight, triplet_offsets(verts)
 
 
 # =========================================================================================
