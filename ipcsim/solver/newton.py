@@ -49,6 +49,18 @@ class _System:
     n_free: int
 
 
+@dataclass(frozen=True, eq=False)
+class _Dofs:
+    """The DOF masks of a kinematic vertex mask: prescribed and free DOFs, each DOF's
+    free number (−1 if prescribed) and how many are free."""
+
+    kinematic: np.ndarray  # (n,) the vertex mask they come from
+    prescribed: np.ndarray  # (3n,) bool
+    free: np.ndarray  # (3n,) bool
+    index: np.ndarray  # (3n,) int64
+    n_free: int
+
+
 @dataclass(frozen=True)
 class NewtonResult:
     """What one minimisation did. ``rows`` holds a newton.csv row per iteration;
@@ -98,26 +110,33 @@ class NewtonSolver:
         # a solver that factors dense arrays (small systems) gets the matrix as one
         self.assembler = DenseAssembler() if getattr(linear_solver, "dense", False) \
             else Assembler()
-        self._free = []  # (kinematic mask, DOF -> free index) of the last two masks
+        self._recent: list[_Dofs] = []  # the DOF masks of the last two kinematic masks
 
-    def _free_index(self, kinematic):
-        """DOF -> free DOF number (−1 if kinematic), the same array while the mask is one
-        of the last two seen: a step that pulls its prescribed vertices goes back and
-        forth between two masks, and the assembler keeps its pattern per array."""
-        for mask, index in self._free:
-            if np.array_equal(mask, kinematic):
-                return index
-        free_dofs = ~np.repeat(kinematic, 3)
-        index = np.full(free_dofs.size, -1, dtype=np.int64)
-        index[free_dofs] = np.arange(int(free_dofs.sum()))
-        self._free = [(kinematic.copy(), index), *self._free[:1]]
-        return index
+    def _dofs(self, kinematic) -> _Dofs:
+        """The DOF masks of ``kinematic``, the same arrays while it is one of the last two
+        masks seen (the same array, or equal): a step that pulls its prescribed vertices
+        goes back and forth between two masks, and the assembler keeps its pattern per
+        free-index array. An objective's mask is a value: a changed mask is a new array."""
+        for dofs in self._recent:
+            if dofs.kinematic is kinematic:
+                return dofs
+        for dofs in self._recent:
+            if np.array_equal(dofs.kinematic, kinematic):
+                return dofs
+        prescribed = np.repeat(kinematic, 3)
+        free = ~prescribed
+        index = np.full(free.size, -1, dtype=np.int64)
+        n_free = int(free.sum())
+        index[free] = np.arange(n_free)
+        dofs = _Dofs(kinematic, prescribed, free, index, n_free)
+        self._recent = [dofs, *self._recent[:1]]
+        return dofs
 
     def solve(self, objective, x0: np.ndarray, tol: float) -> NewtonResult:
         """Minimise ``objective`` from ``x0`` (n, 3) until ‖p‖∞ < tol with the prescribed
         motion complete, or the iteration cap."""
         x = x0.copy()
-        kin_dofs = np.repeat(objective.kinematic, 3)
+        kin_dofs = self._dofs(objective.kinematic).prescribed
         target = objective.target.reshape(-1)
         run = _Progress(np.abs(target[kin_dofs] - x.reshape(-1)[kin_dofs]).max(initial=0.0),
                         tol)
@@ -136,9 +155,10 @@ class NewtonSolver:
             ev = ev.without_hessian()  # its triplets go before the factorisation
             p, remaining = self._direction(objective, x, system, run, it)
             del system  # the matrix too goes before the line search
-            step_norm = np.abs(p[~kin_dofs]).max(initial=0.0)
+            free = self._dofs(objective.kinematic).free
+            step_norm = np.abs(p[free]).max(initial=0.0)
             row = {"iteration": it, "step_inf_norm": step_norm, "tolerance": tol,
-                   "gradient_norm": float(np.linalg.norm(ev.gradient[~kin_dofs])),
+                   "gradient_norm": float(np.linalg.norm(ev.gradient[free])),
                    "kappa": ev.kappa,
                    "residual_ratio": step_norm / tol if tol > 0 else np.nan}
             converged = (run.kinematic_complete and step_norm < tol
@@ -169,18 +189,15 @@ class NewtonSolver:
                 run.iterations = it + 1
                 return self._finish(objective, x, run, converged=True)
             objective.follow_up(x, p, first=it == 0)  # may pull prescribed vertices
-            kin_dofs = np.repeat(objective.kinematic, 3)  # a pull frees its vertices
         run.iterations = self.settings.max_newton_iterations
         return self._finish(objective, x, run, converged=False, hit_cap=True)
 
     def _system(self, objective, x, ev, run: _Progress) -> "_System":
         """The Newton system over the free DOFs at x (assembled from ev's Hessian) and the
         prescribed part of the direction: p_k = target − x_k, the motion still remaining."""
-        kinematic = objective.kinematic
-        kin_dofs = np.repeat(kinematic, 3)
-        free_dofs = ~kin_dofs
-        free_index = self._free_index(kinematic)  # DOF -> free DOF number, −1 if kinematic
-        n_free = int(free_dofs.sum())
+        dofs = self._dofs(objective.kinematic)
+        kin_dofs, free_dofs = dofs.prescribed, dofs.free
+        free_index, n_free = dofs.index, dofs.n_free  # DOF -> free DOF number, −1 if kinematic
         p = np.zeros(x.size)
         p_kin = objective.target.reshape(-1)[kin_dofs] - x.reshape(-1)[kin_dofs]
         remaining = np.abs(p_kin).max(initial=0.0)

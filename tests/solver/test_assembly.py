@@ -178,12 +178,16 @@ def test_newton_keeps_the_free_index_of_the_last_two_masks():
     a, b, c = (np.zeros(5, dtype=bool) for _ in range(3))
     a[0] = True
     c[4] = True
-    first_a, first_b = newton._free_index(a), newton._free_index(b)
-    assert newton._free_index(a.copy()) is first_a and newton._free_index(b) is first_b
+    def free_index(mask):
+        return newton._dofs(mask).index
+
+    first_a, first_b = free_index(a), free_index(b)
+    assert free_index(a.copy()) is first_a and free_index(b) is first_b
     np.testing.assert_array_equal(first_a, [-1, -1, -1, *range(12)])
-    newton._free_index(c)  # a third mask: a, the least recently made, goes
-    assert newton._free_index(b) is first_b
-    assert newton._free_index(a) is not first_a
+    free_index(c)  # a third mask: a, the least recently made, goes
+    assert free_index(b) is first_b
+    assert free_index(a) is not first_a
+    assert newton._dofs(b).n_free == 15 and newton._dofs(c).prescribed[12:].all()
 
 
 def _elastic_hessian(n_cells=(2, 1, 1)):
