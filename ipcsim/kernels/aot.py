@@ -141,6 +141,26 @@ def parse_types(text: str) -> tuple:
     return tuple(ast.literal_eval(f"({literal},)"))
 
 
+def key_to_json(key):
+    """An argument key as JSON: [dtype, ndim] for an array, the name for a scalar,
+    {"tuple": [...]} for a tuple (the manifest stores keys so: a start reads them
+    without ``parse_types``, whose regular expressions cost milliseconds a start)."""
+    if isinstance(key, tuple) and len(key) == 2 and isinstance(key[1], int):
+        return [key[0], key[1]]
+    if isinstance(key, tuple):
+        return {"tuple": [key_to_json(k) for k in key]}
+    return key
+
+
+def key_from_json(obj):
+    """The argument key ``key_to_json`` wrote."""
+    if isinstance(obj, list):
+        return obj[0], obj[1]
+    if isinstance(obj, dict):
+        return tuple(key_from_json(k) for k in obj["tuple"])
+    return obj
+
+
 def read_table(path: Path = TABLE) -> list[tuple[str, str, tuple]]:
     """``[(module, function, argument key), ...]`` of the signature table."""
     rows = []
@@ -220,9 +240,11 @@ def _entries() -> dict:
                 manifest = _usable(folder)
                 if manifest is not None:
                     module = _load_module(folder, manifest)
-                    for mod, function, export, types in manifest["exports"]:
-                        _loaded["entries"].setdefault((mod, function), {})[
-                            parse_types(types)] = getattr(module, export)
+                    for mod, function, export, types, *json_key in manifest["exports"]:
+                        key = (tuple(map(key_from_json, json_key[0])) if json_key
+                               else parse_types(types))
+                        _loaded["entries"].setdefault((mod, function), {})[key] = \
+                            getattr(module, export)
                     _loaded["folder"] = folder
                     break
     return _loaded["entries"]

@@ -78,7 +78,8 @@ def build(out_folder: Path, verbose: bool = False) -> Path:
             cc.export(export, dispatcher.overloads[argtypes].signature)(
                 _trampoline(dispatcher, len(key)))
             exports.append([module, function, export,
-                            ", ".join(aot.format_key(k) for k in key)])
+                            ", ".join(aot.format_key(k) for k in key),
+                            [aot.key_to_json(k) for k in key]])
         cc.compile()
     manifest = {"sources": aot.sources_digest(), "machine": platform.machine(),
                 "cpu_features": aot.cpu_features() if cc.target_cpu else [],

@@ -131,6 +131,14 @@ def test_every_table_line_reads_back_as_written():
     assert len(set(lines)) == len(lines)
 
 
+def test_every_table_key_goes_through_the_manifests_json_unchanged():
+    keys = [key for _, _, key in aot.read_table()]
+    assert any(isinstance(k, tuple) and not isinstance(k[1], int) for key in keys for k in key)
+    for key in keys:
+        stored = json.loads(json.dumps([aot.key_to_json(k) for k in key]))
+        assert tuple(aot.key_from_json(k) for k in stored) == key
+
+
 def _manifest(tmp_path, **changes) -> dict:
     manifest = {"sources": aot.sources_digest(), "machine": platform.machine(),
                 "cpu_features": aot.cpu_features()[:3], "module_file": "none.so",
