@@ -29,6 +29,7 @@ from .kernels.threads import use_threads
 from .model.kinematics import kinematic_targets, nbc_accelerations
 from .model.surface import index_set
 from .potentials.base import StepContext, Triplets
+from .potentials.fused import available as fused_kernels_available
 from .potentials.objective import StepObjective
 from .potentials.terms import incremental_potential
 from .records import replaced
@@ -104,7 +105,7 @@ class Simulation:
         self.newton = NewtonSolver(model.solver, self.linear_solver, self.timer,
                                    observer=self._observe)
         if (getattr(self.linear_solver, "dense", False) and model.constraint_solver is None
-                and model.solver.warm_start != 5):
+                and model.solver.warm_start != 5 and fused_kernels_available()):
             # a dense Newton matrix: the terms are evaluated and added into it together
             # (warm start 5 reads their triplets, the baselines their sparse Hessian)
             self.potential = self.potential.fusing()

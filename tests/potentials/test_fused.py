@@ -41,8 +41,15 @@ VARIANTS = {
 def simulation(tmp_path, extra: str) -> Simulation:
     write_box_msh(tmp_path / "box.msh", cells=(1, 1, 1))
     (tmp_path / "scene.txt").write_text(SCENE.format(extra=extra))
-    sim = Simulation(build_model(load_scene(tmp_path / "scene.txt")))
-    assert sim.potential.fused is not None  # 16 vertices: a dense Newton matrix
+    return fused_sim(Simulation(build_model(load_scene(tmp_path / "scene.txt"))))
+
+
+def fused_sim(sim: Simulation) -> Simulation:
+    """``sim`` with its terms fused (as a run does where the fused kernels were compiled
+    at install: 16 vertices make a dense Newton matrix)."""
+    if sim.potential.fused is None:
+        sim.potential = sim.potential.fusing()
+    assert sim.potential.fused is not None
     return sim
 
 
@@ -131,7 +138,7 @@ def test_runs_are_the_same_with_and_without_fusing(tmp_path, monkeypatch, varian
     else:
         write_box_msh(tmp_path / "box.msh", cells=(1, 1, 1))
         (tmp_path / "scene.txt").write_text(PRESCRIBED[variant])
-        fused, plain = (Simulation(build_model(load_scene(tmp_path / "scene.txt")))
+        fused, plain = (fused_sim(Simulation(build_model(load_scene(tmp_path / "scene.txt"))))
                         for _ in range(2))
     plain.potential = termwise(plain.potential)
     assert fused.potential.fused is not None and plain.potential.fused is None
@@ -160,6 +167,17 @@ def test_a_term_without_a_fused_form_keeps_the_terms_apart(tmp_path):
     assert FusedTerms.of(terms + (penalty,)) is None
     assert FusedTerms.of(terms + (terms[0],)) is None  # a kind twice
     assert sim.potential.with_term(penalty).fused is None
+
+
+def test_runs_fuse_only_where_the_fused_kernels_were_compiled_at_install(tmp_path,
+                                                                       monkeypatch):
+    write_box_msh(tmp_path / "box.msh", cells=(1, 1, 1))
+    (tmp_path / "scene.txt").write_text(SCENE.format(extra=""))
+    model = build_model(load_scene(tmp_path / "scene.txt"))
+    monkeypatch.setattr("ipcsim.simulation.fused_kernels_available", lambda: True)
+    assert Simulation(model).potential.fused is not None
+    monkeypatch.setattr("ipcsim.simulation.fused_kernels_available", lambda: False)
+    assert Simulation(model).potential.fused is None
 
 
 def test_the_fused_hessian_is_added_as_one_dense_part(tmp_path):
