@@ -7,6 +7,9 @@ ipcsim is installed, with the argument types of every call the scenes make from 
     python tools/kernel_signatures.py --check [SCENE[@STEPS] ...]
         runs them as ipcsim runs (compiled kernels where there are) and lists each call
         the table lacks; exit 1 if there is one
+    python tools/kernel_signatures.py --add [SCENE[@STEPS] ...]
+        as --check, then adds those calls to the table and keeps every line it had (a
+        rewrite keeps only the calls of the scenes it ran: other paths' calls go)
 
 Without scenes, the list below: the project's scenes and the original's tutorial and
 paper examples from ../shared/ipc-examples (each to some contact, with friction where it
@@ -66,14 +69,21 @@ def record(scenes: list[str]) -> list[str]:
     return aot.recorded_calls()
 
 
+def merged(table: list[str], calls: list[str]) -> str:
+    """The table's text with ``calls`` added: every line once, in order."""
+    return HEADER + "\n".join(sorted(set(table) | set(calls))) + "\n"
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python tools/kernel_signatures.py",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("scenes", nargs="*", help="SCENE[@STEPS] (default: the list)")
     parser.add_argument("--check", action="store_true",
                         help="list the calls the table lacks instead of rewriting it")
+    parser.add_argument("--add", action="store_true",
+                        help="add the calls the table lacks, keeping its other lines")
     args = parser.parse_args(argv)
-    if not args.check:
+    if not (args.check or args.add):
         os.environ["IPCSIM_AOT"] = "0"  # every call goes to numba and is recorded
     os.chdir(ROOT)
     sys.path.insert(0, str(ROOT))
@@ -85,12 +95,16 @@ def main(argv=None) -> int:
         print(f"an argument no compiled kernel can take (read-only or strided?): {line}",
               file=sys.stderr)
     lines = [line for line in lines if "?" not in line]
-    if args.check:
-        table = {f"{m}.{f}({', '.join(aot.format_key(k) for k in key)})"
-                 for m, f, key in aot.read_table()}
-        missing = [line for line in lines if line not in table]
+    if args.check or args.add:
+        table = [f"{m}.{f}({', '.join(aot.format_key(k) for k in key)})"
+                 for m, f, key in aot.read_table()]
+        missing = [line for line in lines if line not in set(table)]
         for line in missing:
             print(f"not in {aot.TABLE.name}: {line}")
+        if args.add:
+            aot.TABLE.write_text(merged(table, missing), encoding="utf-8")
+            print(f"{len(missing)} signatures added -> {aot.TABLE}")
+            return 1 if odd else 0
         return 1 if missing or odd else 0
     aot.TABLE.write_text(HEADER + "\n".join(lines) + "\n", encoding="utf-8")
     print(f"{len(lines)} signatures -> {aot.TABLE}")
