@@ -139,15 +139,11 @@ def narrowed_collisions(swept: Collisions, x: np.ndarray, dhat: float) -> Collis
     within the reach the sweep's boxes were grown by): the
     swept boxes hold x's boxes, so the pairs whose boxes overlap at x are all there, and
     the same box test keeps exactly those, without a new BVH query. Only the order of
-    the pairs may differ from a fresh query's."""
-    if swept.pt_id is not None and swept.ee_id is not None:  # one kernel call
-        pt, ee, eps_x, pt_id, ee_id, *distances = near_pairs(
-            x, swept.pt, swept.ee, swept.ee_eps_x, swept.pt_id, swept.ee_id, dhat)
-        return Collisions(pt, ee, eps_x, PairDistances(*distances), pt_id, ee_id)
-    near = swept.within_motion(x, x, dhat)
-    return Collisions(near.pt, near.ee, near.ee_eps_x,
-                      PairDistances(*classify_and_distance(x, near.pt, near.ee)),
-                      near.pt_id, near.ee_id)
+    the pairs may differ from a fresh query's. The swept set has its pairs' ids, as
+    every set this module builds."""
+    pt, ee, eps_x, pt_id, ee_id, *distances = near_pairs(
+        x, swept.pt, swept.ee, swept.ee_eps_x, swept.pt_id, swept.ee_id, dhat)
+    return Collisions(pt, ee, eps_x, PairDistances(*distances), pt_id, ee_id)
 
 
 def swept_collisions(mesh: CollisionMesh, x0: np.ndarray, x1: np.ndarray,

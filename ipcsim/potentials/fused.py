@@ -215,10 +215,6 @@ class FusedHessian:
         return self._triplets.cols
 
     @property
-    def vals(self) -> np.ndarray:
-        return self._triplets.vals
-
-    @property
     def values(self) -> np.ndarray:
         return self._triplets.vals
 

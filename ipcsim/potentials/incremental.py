@@ -127,10 +127,7 @@ class IncrementalPotential:
         return TermValues(self.terms, x, ctx, gradients, hessians)
 
     def value(self, x: np.ndarray, ctx: StepContext, kappa: float) -> float:
-        if self.fused is not None:
-            values = self.fused.values(x, ctx)
-            return float(sum(t.factor(kappa) * v for t, v in zip(self.terms, values)))
-        return float(sum(t.factor(kappa) * t.term.value(x, ctx) for t in self.terms))
+        return self.evaluate(x, ctx, 0).energy(kappa)
 
     def max_step(self, x: np.ndarray, p: np.ndarray, ctx: StepContext) -> float:
         """Largest feasible step fraction of the terms that bound one (the inversion bound
