@@ -310,8 +310,7 @@ def _step_loop(run: _Run, step_log, newton_log, progress, stop) -> None:
         report = sim.step()
         row = report.row
         step_log.append(row)
-        for it in report.newton:
-            newton_log.append(it)
+        newton_log.append_rows(report.newton)
         k = sim.state.step
         run.newton_total += row["newton_iterations"]
         _warn_about(run, row, k)

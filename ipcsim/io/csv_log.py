@@ -157,16 +157,26 @@ class CsvLog:
 
     def append(self, row: Mapping[str, object]) -> None:
         """Write one row; see the class docstring for the rules."""
+        self.append_rows((row,))
+
+    def append_rows(self, rows) -> None:
+        """Write several rows in one write (a step's Newton iterations): a reader sees
+        all of them or none; nothing is written if any row is wrong."""
         if self._file.closed:
             raise ValueError(f"{self.path} is closed")
+        lines = [self._line(row) for row in rows]
+        if lines:
+            self._write_line("\n".join(lines))
+            self.rows_written += len(lines)
+
+    def _line(self, row: Mapping[str, object]) -> str:
         unknown = [k for k in row if k not in self._known]
         if unknown:
             raise ValueError(
                 f"unknown column(s) {', '.join(map(repr, unknown))} for {self.path.name}; "
                 f"columns are: {', '.join(self.columns)}"
             )
-        self._write_line(",".join(format_cell(row.get(c)) for c in self.columns))
-        self.rows_written += 1
+        return ",".join([format_cell(row.get(c)) for c in self.columns])
 
     def close(self) -> None:
         if not self._file.closed:

@@ -120,8 +120,10 @@ class NewtonSolver:
         for dofs in self._recent:
             if dofs.kinematic is kinematic:
                 return dofs
-        for dofs in self._recent:
+        for i, dofs in enumerate(self._recent):
             if np.array_equal(dofs.kinematic, kinematic):
+                # each step brings a new, equal mask: found by identity from now on
+                self._recent[i] = dofs = replace(dofs, kinematic=kinematic)
                 return dofs
         prescribed = np.repeat(kinematic, 3)
         free = ~prescribed

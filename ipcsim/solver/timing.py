@@ -11,9 +11,14 @@ class PhaseTimer:
 
     def __init__(self):
         self.totals = defaultdict(float)
+        self._phases: dict[str, _Phase] = {}  # one per phase: a step enters them thousands of times
 
     def __call__(self, phase: str):
-        return _Phase(self.totals, phase)
+        timed = self._phases.get(phase)
+        if timed is None or timed.start is not None:  # new, or entered again within itself
+            timed = _Phase(self.totals, phase)
+            self._phases.setdefault(phase, timed)
+        return timed
 
     def reset(self) -> dict[str, float]:
         out = dict(self.totals)
@@ -25,10 +30,11 @@ class _Phase:
     __slots__ = ("totals", "phase", "start")
 
     def __init__(self, totals, phase):
-        self.totals, self.phase = totals, phase
+        self.totals, self.phase, self.start = totals, phase, None
 
     def __enter__(self):
         self.start = time.perf_counter()
 
     def __exit__(self, *exc):
         self.totals[self.phase] += time.perf_counter() - self.start
+        self.start = None

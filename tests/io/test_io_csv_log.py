@@ -85,6 +85,22 @@ def test_each_row_is_on_disk_when_append_returns(tmp_path):
         log.append({"step": 2})
 
 
+def test_rows_appended_together_are_written_whole_or_not_at_all(tmp_path):
+    path = tmp_path / "newton.csv"
+    with NewtonLog(path) as log:
+        log.append_rows([{"step": 1, "iteration": i, "energy": 0.5 * i} for i in range(3)])
+        assert log.rows_written == 3
+        # on disk before the log closes, each row on its own line
+        assert read_csv(path)["iteration"].tolist() == [0, 1, 2]
+        with pytest.raises(ValueError, match="alfa"):
+            log.append_rows([{"step": 2, "iteration": 0}, {"step": 2, "alfa": 1.0}])
+        log.append_rows([])
+        assert log.rows_written == 3
+    data = read_csv(path)
+    assert data["step"].tolist() == [1, 1, 1]
+    assert data["energy"].tolist() == [0.0, 0.5, 1.0]
+
+
 def test_header_only_file_reads_as_empty_columns(tmp_path):
     path = tmp_path / "newton.csv"
     NewtonLog(path).close()
