@@ -36,6 +36,8 @@ class PairDistances:
 
 @dataclass(frozen=True)
 class MeshContactCount:
+    """Active mesh contacts at one x, by kind, and the closest distance."""
+
     point_triangle: int  # active pairs: d² < d̂²
     edge_edge: int
     min_distance: float  # smallest distance over the candidates (inf without any)

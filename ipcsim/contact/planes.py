@@ -17,6 +17,8 @@ from ..kernels.plane_contact import plane_active_count_and_min_distance
 
 @dataclass(frozen=True, eq=False)
 class Planes:
+    """The contact planes and the vertices tested against them, with each plane's μ."""
+
     vertices: np.ndarray  # (v,) int64, the vertices tested against every plane
     origins: np.ndarray  # (p, 3)
     normals: np.ndarray  # (p, 3) unit

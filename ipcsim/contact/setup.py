@@ -39,6 +39,9 @@ class ContactCount:
 
 @dataclass(frozen=True, eq=False)
 class ContactSetup:
+    """What a scene's contact needs at every step: the collision mesh, the planes, d̂,
+    mesh friction and how steps and κ are handled."""
+
     mesh: CollisionMesh | None
     planes: Planes | None
     dhat: float

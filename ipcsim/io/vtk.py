@@ -20,7 +20,6 @@ import sys
 import time as _time
 import zlib
 from pathlib import Path
-from html import escape
 
 import numpy as np
 
@@ -59,6 +58,12 @@ _VTK_TYPE_NAMES = {
 
 _BYTE_ORDER = "LittleEndian" if sys.byteorder == "little" else "BigEndian"
 _BLOCK_SIZE = 1 << 15  # VTK's own default block size for compressed arrays
+
+
+def _attribute(text: str) -> str:
+    """``text`` as the value of a double-quoted XML attribute."""
+    return (text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+            .replace('"', "&quot;"))
 
 
 def frame_file_name(index: int) -> str:
@@ -111,7 +116,7 @@ def _data_array(name: str, data: np.ndarray, level: int | None, *, tuples: bool 
     if tuples:  # VTK reads field-data arrays as empty without it
         comps += f' NumberOfTuples="{data.shape[0]}"'
     return (
-        f'<DataArray type="{type_name}" Name="{escape(name)}"{comps} format="binary">'
+        f'<DataArray type="{type_name}" Name="{_attribute(name)}"{comps} format="binary">'
         f"{_encode_array(data, level)}</DataArray>\n"
     )
 
@@ -321,7 +326,7 @@ class FrameWriter:
 
     def _add_to_series(self, index: int, time: float, name: str) -> None:
         # repr keeps the exact double; ParaView and pyvista parse it as a float
-        line = f'    <DataSet timestep="{time!r}" part="0" file="{escape(name)}"/>\n'
+        line = f'    <DataSet timestep="{time!r}" part="0" file="{_attribute(name)}"/>\n'
         self._series[index] = (time, name, line)
 
     def _write_series(self) -> None:

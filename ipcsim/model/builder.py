@@ -396,6 +396,8 @@ def _elastic_shapes(all_parts, offsets, always) -> np.ndarray:
 
 @dataclass
 class _Elastic:
+    """The tets of every elastic shape, in global vertex numbers, with their rest data."""
+
     tets: np.ndarray  # (m, 4) global vertex indices
     tet_shape: np.ndarray  # (m,)
     volumes: np.ndarray  # (m,) rest volumes
@@ -427,6 +429,8 @@ def _elastic_tets(scene, all_parts, offsets, rest) -> _Elastic:
 
 @dataclass
 class _CollisionMesh:
+    """The surface primitives that can collide, with the shape of each."""
+
     triangles: np.ndarray
     triangle_shape: np.ndarray
     edges: np.ndarray

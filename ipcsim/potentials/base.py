@@ -273,6 +273,8 @@ class ElementHessian:
 
 @dataclass(frozen=True, eq=False)
 class _KeptValues:
+    """A block-strided slice of Hessian values kept from one evaluation."""
+
     vals: np.ndarray
     block: int
 

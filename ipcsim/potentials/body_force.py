@@ -18,6 +18,8 @@ from .base import StepContext, Triplets
 
 @dataclass(frozen=True, eq=False)
 class BodyForce:
+    """−Σ mᵢ aᵢ·xᵢ: gravity and the step's prescribed forces (``StepContext.acceleration``)."""
+
     mass: np.ndarray  # (n,) lumped masses
     name: ClassVar[str] = "body force"
     constant_pattern: ClassVar[bool] = False

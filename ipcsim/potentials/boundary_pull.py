@@ -31,6 +31,9 @@ MAX_RHO = 1e8  # ρ is doubled up to this
 
 @dataclass(frozen=True, eq=False)
 class BoundaryPull:
+    """The augmented-Lagrangian pull of prescribed vertices towards their targets (module
+    docstring)."""
+
     vertices: np.ndarray  # (k,) int64, the pulled vertices
     mass: np.ndarray  # (k,) their lumped masses
     target: np.ndarray  # (k, 3) their targets x̂

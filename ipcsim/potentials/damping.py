@@ -19,6 +19,8 @@ from .base import ElementHessian, LaggedDamping, StepContext
 
 @dataclass(frozen=True, eq=False)
 class Damping:
+    """½ Δxᵀ D Δx with D the elastic Hessian lagged at the step's start, scaled by k/h·w."""
+
     scale: float  # k/h · w
     name: ClassVar[str] = "damping"
     constant_pattern: ClassVar[bool] = True

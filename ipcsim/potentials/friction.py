@@ -35,6 +35,8 @@ from .base import StepContext, Triplets
 
 @dataclass(frozen=True, eq=False)
 class Friction:
+    """Lagged, smoothed friction of the mesh and plane contacts (module docstring)."""
+
     eps: float  # ε_v·h, the sliding displacement below which friction ramps up
     project: bool = True
     ramp_resolution: float = 0.1  # pairs that must slide: resolved when p moves them < this·ε

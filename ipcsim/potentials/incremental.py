@@ -25,6 +25,8 @@ from .fused import FusedTerms
 
 @dataclass(frozen=True, eq=False)
 class WeightedTerm:
+    """One term of the incremental potential with its weight (and κ, for a barrier)."""
+
     term: Potential
     weight: float = 1.0  # fixed weight (h² or βh² for forces and elasticity)
     barrier: bool = False  # also scaled by κ
@@ -98,6 +100,8 @@ class TermValues:
 
 @dataclass(frozen=True, eq=False)
 class IncrementalPotential:
+    """The step's potential: its weighted terms, evaluated together where ``fused``."""
+
     terms: tuple[WeightedTerm, ...]
     fused: FusedTerms | None = None  # set by ``fusing``
 

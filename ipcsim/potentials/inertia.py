@@ -14,6 +14,8 @@ from .base import StepContext, Triplets
 
 @dataclass(frozen=True, eq=False)
 class Inertia:
+    """½ ‖x − x̃‖²_M with the lumped masses M."""
+
     mass: np.ndarray  # (n,) lumped masses
     name: ClassVar[str] = "inertia"
     constant_pattern: ClassVar[bool] = True  # the same triplet index arrays on every call

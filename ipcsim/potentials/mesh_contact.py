@@ -22,6 +22,8 @@ from .base import BlockHessian, StepContext, Triplets
 
 @dataclass(frozen=True, eq=False)
 class MeshContact:
+    """The barrier of the mesh's collision set at unit κ: Σ b(d², d̂²)."""
+
     dhat: float
     name: ClassVar[str] = "mesh contact"
     constant_pattern: ClassVar[bool] = False

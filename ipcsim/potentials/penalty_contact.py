@@ -23,6 +23,8 @@ from .base import StepContext, Triplets
 
 @dataclass(frozen=True, eq=False)
 class PenaltyPlaneContact:
+    """The penalty baseline's plane contact: a stiff quadratic inside d̂, no barrier."""
+
     planes: Planes
     dhat: float
     stiffness: float
@@ -48,6 +50,8 @@ class PenaltyPlaneContact:
 
 @dataclass(frozen=True, eq=False)
 class PenaltyMeshContact:
+    """The penalty baseline's mesh contact: a stiff quadratic inside d̂, no barrier."""
+
     dhat: float
     stiffness: float
     name: ClassVar[str] = "mesh penalty contact"

@@ -17,6 +17,8 @@ CCD_KEEP_FRACTION = 0.1
 
 @dataclass(frozen=True, eq=False)
 class PlaneContact:
+    """The barrier of the vertices near the contact planes at unit κ."""
+
     planes: Planes
     dhat: float
     name: ClassVar[str] = "plane contact"

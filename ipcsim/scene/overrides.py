@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import dataclasses
 import re
-import tomllib
 from collections.abc import Mapping
 
 from ..errors import SceneError, excerpt
@@ -92,6 +91,8 @@ def parse_assignment(text: str) -> tuple[str, object]:
     if not sep or not key.strip():
         raise ValueError(f"expected KEY=VALUE, got '{excerpt(text)}'")
     value = value.strip()
+    import tomllib  # a run without --set reads no TOML value
+
     try:
         return key.strip(), tomllib.loads(f"v = {value}")["v"]
     except (tomllib.TOMLDecodeError, ValueError, RecursionError):

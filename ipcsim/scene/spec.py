@@ -60,6 +60,8 @@ MESH_KINDS = {".msh": "tet", ".vtk": "tet", ".vtu": "tet", ".ele": "tet", "": "t
 
 @dataclass(frozen=True)
 class MaterialSpec:
+    """A shape's material."""
+
     density: float  # kg/m^3
     youngs_modulus: float  # Pa
     poisson_ratio: float
@@ -90,6 +92,8 @@ class NeumannSpec:
 
 @dataclass(frozen=True)
 class InitialVelocitySpec:
+    """A shape's initial velocity."""
+
     linear: Vec3  # m/s
     angular_deg: Vec3  # deg/s about the shape's initial AABB centre
 
@@ -149,6 +153,9 @@ class MeshObstacleSpec:
 
 @dataclass(frozen=True)
 class SceneSpec:
+    """A whole scene as written (module docstring): shapes, planes, obstacles, time,
+    material, contact and solver settings."""
+
     shapes: tuple[ShapeSpec, ...] = ()
     planes: tuple[PlaneSpec, ...] = ()
     mesh_obstacles: tuple[MeshObstacleSpec, ...] = ()

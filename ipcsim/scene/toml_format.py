@@ -30,7 +30,6 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
-import tomllib
 from pathlib import Path
 
 import tomli_w
@@ -235,6 +234,8 @@ class _Reader:
     # the document -------------------------------------------------------------------------
 
     def parse(self) -> SceneSpec:
+        import tomllib  # a run of a text scene reads no TOML
+
         try:
             doc = tomllib.loads(self.text)
         except RecursionError:

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import bisect
 import dataclasses
-import difflib
 import math
 import re
 import sys
@@ -144,6 +143,8 @@ def suggest(word: str, choices) -> str:
     lower = {}
     for c in choices:
         lower.setdefault(c.lower(), c)
+    import difflib  # only for a misspelt keyword
+
     best = difflib.get_close_matches(word.lower(), list(lower), n=1, cutoff=0.6)
     return f" (did you mean '{lower[best[0]]}'?)" if best else ""
 
