@@ -1,10 +1,13 @@
 """Lagged Rayleigh damping, as the original's ``dampingStiff`` / ``dampingRatio``:
 
-    ½ Δxᵀ D Δx,   Δx = x − xₙ,   D = (k/h) · w ∇²Ψ(xₙ)
+    ½ Δxᵀ D Δx,   Δx = x − xₙ,   D = (k/h) · ∇²Ψ(xₙ)
 
-where w∇²Ψ is the (PSD-projected) Hessian of the weighted elastic term at the start of
-the step (w = h² for backward Euler) and k the damping stiffness. D is fixed during the
-step (``ctx.damping``, made by ``lag``); its triplets reuse the elastic term's index arrays,
+where ∇²Ψ is the (PSD-projected) Hessian of the elastic energy itself at the start of the
+step, without the h² (β h² for Newmark) that weighs elasticity in the potential, and k
+the damping stiffness: the original's ``computeDampingMtr`` scales the elastic Hessian
+by k/h alone. With ``dampingRatio r`` (k = ¾ r h³), D is ¾ r times the weighted elastic
+Hessian h²∇²Ψ of backward Euler, whichever the integrator. D is fixed during the step
+(``ctx.damping``, made by ``lag``); its triplets reuse the elastic term's index arrays,
 so assembly reuses their pattern.
 """
 
@@ -19,15 +22,15 @@ from .base import ElementHessian, LaggedDamping, StepContext
 
 @dataclass(frozen=True, eq=False)
 class Damping:
-    """½ Δxᵀ D Δx with D the elastic Hessian lagged at the step's start, scaled by k/h·w."""
+    """½ Δxᵀ D Δx with D the elastic Hessian lagged at the step's start, scaled by k/h."""
 
-    scale: float  # k/h · w
+    scale: float  # k/h
     name: ClassVar[str] = "damping"
     constant_pattern: ClassVar[bool] = True
 
     @staticmethod
-    def of(stiffness: float, h: float, elastic_weight: float) -> "Damping":
-        return Damping(stiffness / h * elastic_weight)
+    def of(stiffness: float, h: float) -> "Damping":
+        return Damping(stiffness / h)
 
     def lag(self, x_start, elastic_hessian: ElementHessian) -> LaggedDamping:
         """D at the start of a step from the elastic term's Hessian there."""

@@ -33,8 +33,7 @@ def incremental_potential(model, force_weight: float) -> IncrementalPotential:
     if elasticity is not None:
         terms.append(WeightedTerm(elasticity, force_weight))
         if model.needs_damping:
-            terms.append(WeightedTerm(Damping.of(model.damping_stiffness, model.dt,
-                                                 force_weight)))
+            terms.append(WeightedTerm(Damping.of(model.damping_stiffness, model.dt)))
     terms.extend(contact_terms(model))
     if model.needs_friction:  # only where some μ > 0
         # ε_v·h with the scene's own h
