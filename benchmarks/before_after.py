@@ -10,7 +10,8 @@ and build the median whole-process wall time (the range in parentheses), the ste
 own time (steps.csv), Newton iterations and peak memory (run.json), and after/before of
 the medians; ``--out`` also writes the rows as ``before_after.csv``. Scenes are run from
 their own folder's parent (where an original script's ``input/...`` meshes resolve),
-into a temporary folder, on ``--threads`` threads (``IPCSIM_THREADS``, default 1).
+into a temporary folder, on ``--threads`` threads (``IPCSIM_THREADS``, default 1), and
+without ``PYTHONPATH``, so that each command runs its own install.
 """
 
 from __future__ import annotations

@@ -330,11 +330,15 @@ def original_env(lib_path: str, threads: int) -> dict:
     return env
 
 
-def ipcsim_env(threads: int) -> dict:
+def ipcsim_env(threads: int, own_install: bool = True) -> dict:
     """The user's environment (no library path of the original's) with the thread count
-    fixed."""
+    fixed. With ``own_install`` (an ``ipcsim`` console script is run) without
+    ``PYTHONPATH``: a path to a checkout would make every install import that checkout's
+    sources instead of its own (a before/after of two installs then times one code)."""
     env = dict(os.environ)
     env["IPCSIM_THREADS"] = str(threads)
+    if own_install:
+        env.pop("PYTHONPATH", None)
     return env
 
 
@@ -385,8 +389,9 @@ def run_ipcsim(script: Path, out: Path, cwd: Path, s: Settings, steps: int | Non
     cmd = ipcsim_command() + ["run", str(script), "-o", str(_fresh(out)), "-q"]
     if steps:
         cmd += ["--steps", str(steps)]
-    rc, wall, peak = run_timed(cmd, cwd, ipcsim_env(s.threads), out.with_name("ipcsim.log"),
-                               s.timeout)
+    # a console script runs its own install; "python -m ipcsim.cli" may need the path
+    env = ipcsim_env(s.threads, own_install=cmd[0] != sys.executable)
+    rc, wall, peak = run_timed(cmd, cwd, env, out.with_name("ipcsim.log"), s.timeout)
     run = Run(rc, wall, peak)
     read_ipcsim(out, run)
     return run

@@ -19,6 +19,14 @@ from benchmarks import vs_original as vs
 from ipcsim.scene import load_scene
 
 
+def test_an_installed_ipcsim_runs_without_the_callers_python_path(monkeypatch):
+    # a checkout on PYTHONPATH would make two installs under comparison run its sources
+    monkeypatch.setenv("PYTHONPATH", "/some/checkout")
+    assert "PYTHONPATH" not in vs.ipcsim_env(1)
+    assert vs.ipcsim_env(2, own_install=False)["PYTHONPATH"] == "/some/checkout"
+    assert vs.ipcsim_env(2)["IPCSIM_THREADS"] == "2"
+
+
 def test_the_time_line_is_added_at_the_end_after_a_last_line_without_newline():
     text = vs.shortened("time 5 0.025\nselfFric 0.1\ntol 1\n1e-4", 0.5, 0.025)
     lines = text.splitlines()
