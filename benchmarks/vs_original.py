@@ -15,7 +15,9 @@ the table runs a copy of its script with a ``time DURATION DT`` line added: both
 take the last ``time`` line, and both skip everything after a ``section`` that is not
 closed, so the line goes before the first ``section`` line, else at the end.
 
-Per scene and program: whole-process wall time, wall time of the steps (ipcsim: the sum
+Per scene and program: whole-process wall time, the process's CPU time (user + system,
+from ``wait4``: steadier than the wall time on a host whose other tenants come and go),
+wall time of the steps (ipcsim: the sum
 of steps.csv ``wall_s``; the original: its time stamps, as ``ipc_stats.py`` reads them),
 Newton iterations per step, contacts per step (ipcsim: steps.csv ``contacts_total``; the
 original: the last ``# constraint = N`` of each step in its stdout.txt, which may count
@@ -151,6 +153,7 @@ class Run:
     rc: int
     wall_s: float
     peak_mb: float | None
+    cpu_s: float | None = None  # user + system time of its process
     steps: int | None = None
     steps_wall_s: float | None = None
     newton_per_step: float | None = None
@@ -294,8 +297,9 @@ def _watch_high_water(pid: int, seen: list, stop: threading.Event) -> None:
 def run_timed(cmd: list, cwd: Path, env: dict, log: Path, timeout: float) -> tuple:
     """Run ``cmd`` in its own process group: (exit status, wall seconds, peak resident MB
     of its process: the last VmHWM read while it ran, None for a process too short to
-    be read twice). Past ``timeout`` the group is killed and the status is
-    :data:`TIMEOUT_EXIT`."""
+    be read twice, CPU seconds of its process: user + system, which a busy host's
+    other tenants move less than the wall time). Past ``timeout`` the group is killed
+    and the status is :data:`TIMEOUT_EXIT`."""
     killed: list = []
     seen: list = []
     stop = threading.Event()
@@ -318,7 +322,8 @@ def run_timed(cmd: list, cwd: Path, env: dict, log: Path, timeout: float) -> tup
     proc.returncode = os.waitstatus_to_exitcode(status)
     rc = TIMEOUT_EXIT if killed else proc.returncode
     # a process that ended before a second reading was not watched long enough to tell
-    return rc, wall, max(seen) / 1024.0 if len(seen) > 1 else None  # kilobytes
+    peak = max(seen) / 1024.0 if len(seen) > 1 else None  # kilobytes
+    return rc, wall, peak, usage.ru_utime + usage.ru_stime
 
 
 def original_env(lib_path: str, threads: int) -> dict:
@@ -378,9 +383,9 @@ def original_invocation(script: Path, out: Path, cwd: Path, s: Settings) -> tupl
 
 def run_original(script: Path, out: Path, cwd: Path, s: Settings) -> Run:
     cmd, where, log = original_invocation(script, _fresh(out), cwd, s)
-    rc, wall, peak = run_timed(cmd, where, original_env(s.lib_path, s.threads), log,
-                               s.timeout)
-    run = Run(rc, wall, peak)
+    rc, wall, peak, cpu = run_timed(cmd, where, original_env(s.lib_path, s.threads), log,
+                                    s.timeout)
+    run = Run(rc, wall, peak, cpu)
     read_original(out, run)
     return run
 
@@ -391,8 +396,8 @@ def run_ipcsim(script: Path, out: Path, cwd: Path, s: Settings, steps: int | Non
         cmd += ["--steps", str(steps)]
     # a console script runs its own install; "python -m ipcsim.cli" may need the path
     env = ipcsim_env(s.threads, own_install=cmd[0] != sys.executable)
-    rc, wall, peak = run_timed(cmd, cwd, env, out.with_name("ipcsim.log"), s.timeout)
-    run = Run(rc, wall, peak)
+    rc, wall, peak, cpu = run_timed(cmd, cwd, env, out.with_name("ipcsim.log"), s.timeout)
+    run = Run(rc, wall, peak, cpu)
     read_ipcsim(out, run)
     return run
 
@@ -563,7 +568,7 @@ def summarise(st: Staged, verdict: dict) -> dict:
         row.update({f"{program}_{k}": getattr(last, k) for k in
                     ("rc", "steps", "newton_per_step", "contacts_mean", "vertices")})
         row.update({f"{program}_{k}": _median(runs, k) for k in
-                    ("wall_s", "steps_wall_s", "peak_mb", "own_peak_mb")})
+                    ("wall_s", "steps_wall_s", "peak_mb", "own_peak_mb", "cpu_s")})
         row[f"{program}_wall_all"] = " ".join(f"{r.wall_s:.3f}" for r in runs)
         if any(r.rc != 0 for r in runs):
             row[f"{program}_rc"] = next(r.rc for r in runs if r.rc != 0)
@@ -574,6 +579,8 @@ def summarise(st: Staged, verdict: dict) -> dict:
                     if both_ok else None)
     row["steps_ratio"] = (_ratio(row.get("ipcsim_steps_wall_s"),
                                  row.get("original_steps_wall_s")) if both_ok else None)
+    row["cpu_time_ratio"] = (_ratio(row.get("ipcsim_cpu_s"), row.get("original_cpu_s"))
+                             if both_ok else None)
     row.update({f"compare_{k}": v for k, v in verdict.items()})
     return row
 
@@ -663,7 +670,7 @@ def verdict_text(r: dict) -> str:
 
 
 HEADER = ("| scene | vertices | steps | original s | ipcsim s | ipcsim / original "
-          "| steps only s, original / ipcsim | Newton it./step, original / ipcsim "
+          "| CPU s, original / ipcsim | steps only s, original / ipcsim | Newton it./step, original / ipcsim "
           "| contacts/step, original / ipcsim | peak MB, original / ipcsim "
           "| exit, original / ipcsim | trajectories (ipcsim compare) |")
 
@@ -676,6 +683,7 @@ def markdown(rows: list[dict]) -> str:
             f"| {r['scene']} | {_f(vertices, ',d')} | {_steps(r)} "
             f"| {_sec(r.get('original_wall_s'))} | {_sec(r.get('ipcsim_wall_s'))} "
             f"| {_f(r.get('ratio'))} "
+            f"| {_sec(r.get('original_cpu_s'))} / {_sec(r.get('ipcsim_cpu_s'))} "
             f"| {_sec(r.get('original_steps_wall_s'))} / {_sec(r.get('ipcsim_steps_wall_s'))} "
             f"| {_pair(r.get('original_newton_per_step'), r.get('ipcsim_newton_per_step'), '.1f')} "
             f"| {_pair(r.get('original_contacts_mean'), r.get('ipcsim_contacts_mean'), '.0f')} "
@@ -694,7 +702,8 @@ CSV_FIELDS = (
     "original_rc", "ipcsim_rc",
     "original_wall_all", "ipcsim_wall_all", "compare_verdict", "compare_first_step",
     "compare_first_time", "compare_max_rel", "compare_max_step", "compare_message",
-    "date", "cpu", "cores", "load_before", "load_after", "threads")
+    "date", "cpu", "cores", "load_before", "load_after", "threads",
+    "original_cpu_s", "ipcsim_cpu_s", "cpu_time_ratio")
 
 
 def write_csv(rows: list[dict], info: dict, s: Settings, path: Path) -> None:

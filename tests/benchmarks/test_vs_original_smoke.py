@@ -73,6 +73,7 @@ def test_ipcsim_half_and_the_written_table(tmp_path):
     run = vs.run_ipcsim(st.script, tmp_path / "runs" / "ipcsim", stage, s)
     assert run.rc == 0 and run.steps == 2 and run.vertices == 432
     assert run.newton_per_step >= 1 and run.steps_wall_s > 0 and run.peak_mb > 10
+    assert 0 < run.cpu_s  # user + system time of the process
     st.runs["ipcsim"].append(run)
     row = vs.summarise(st, {})
     info = vs.machine() | {"load_after": vs._load()}
@@ -85,6 +86,7 @@ def test_ipcsim_half_and_the_written_table(tmp_path):
     cells = [c.strip() for c in table.splitlines()[-1].strip("|").split("|")]
     assert cells[:3] == ["hello world, 0.05 s", "432", "2"]
     assert cells[3] == "–" and cells[5] == "–" and cells[-1] == "not compared"
+    assert cells[6] == f"– / {vs._sec(run.cpu_s)}"  # CPU s, original / ipcsim
     with open(paths[0], newline="") as f:
         (written,) = list(csv.DictReader(f))
     assert written["ipcsim_steps"] == "2" and written["original_wall_s"] == ""
@@ -106,6 +108,9 @@ def test_both_programs_on_a_tiny_scene(tmp_path, capsys):
         assert float(row[f"{program}_newton_per_step"]) >= 1
         assert float(row[f"{program}_wall_s"]) >= float(row[f"{program}_steps_wall_s"]) > 0
         assert float(row[f"{program}_peak_mb"]) > 1
+        assert float(row[f"{program}_cpu_s"]) > 0
+    assert float(row["cpu_time_ratio"]) == pytest.approx(
+        float(row["ipcsim_cpu_s"]) / float(row["original_cpu_s"]))
     assert row["compare_verdict"] in ("same", "different")
     assert float(row["compare_max_rel"]) >= 0
 
@@ -158,11 +163,13 @@ def test_a_failed_run_has_no_ratio(tmp_path):
     row keeps both times and exit statuses but no ratio of them."""
     scene = vs.SMOKE_REPO  # a script of this repository: there with or without examples
     staged = vs.Staged(scene, vs.REPO_ROOT / scene.script, tmp_path / "a.txt", "a")
-    staged.runs["ipcsim"].append(vs.Run(0, 0.6, 50.0, steps_wall_s=0.4))
-    staged.runs["original"].append(vs.Run(1, 0.004, 11.0))
+    staged.runs["ipcsim"].append(vs.Run(0, 0.6, 50.0, cpu_s=0.5, steps_wall_s=0.4))
+    staged.runs["original"].append(vs.Run(1, 0.004, 11.0, cpu_s=0.003))
     row = vs.summarise(staged, {})
     assert row["original_rc"] == 1 and row["ipcsim_wall_s"] == 0.6
     assert row["ratio"] is None and row["steps_ratio"] is None
-    staged.runs["original"][0] = vs.Run(0, 0.3, 11.0, steps_wall_s=0.29)
+    assert row["cpu_time_ratio"] is None and row["ipcsim_cpu_s"] == 0.5
+    staged.runs["original"][0] = vs.Run(0, 0.3, 11.0, cpu_s=0.25, steps_wall_s=0.29)
     row = vs.summarise(staged, {})
     assert row["ratio"] == 0.6 / 0.3 and row["steps_ratio"] == 0.4 / 0.29
+    assert row["cpu_time_ratio"] == 0.5 / 0.25
