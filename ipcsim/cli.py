@@ -16,7 +16,13 @@ import sys
 import warnings
 from typing import NoReturn
 
-import numpy as np
+# numpy's BLAS on one thread unless the user says otherwise, set before numpy loads it:
+# ipcsim's BLAS calls are on single vectors (the kernels and CHOLMOD do the heavy work
+# without it), and OpenBLAS's idle worker spins at start-up, about 0.1 s of another
+# core's time per run, taken from whatever else runs there.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402  (after the BLAS setting)
 
 from . import __version__
 from .errors import IpcsimError, SceneError, excerpt, one_line

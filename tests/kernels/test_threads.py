@@ -73,3 +73,18 @@ def test_both_variants_of_a_kernel_give_the_same_bits():
     assert v0 == v1 and v0 > 0.0
     np.testing.assert_array_equal(g0, g1)
     np.testing.assert_array_equal(h0, h1)
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self/task"), reason="needs Linux's /proc")
+def test_the_command_line_keeps_numpys_blas_on_one_thread_unless_told_otherwise():
+    # importing ipcsim.cli loads numpy: its OpenBLAS starts no idle worker to spin
+    code = ("import os, ipcsim.cli\n"
+            "print(os.environ['OPENBLAS_NUM_THREADS'], len(os.listdir('/proc/self/task')))\n")
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                         text=True, check=True).stdout.split()
+    assert out == ["1", "1"]
+    out = subprocess.run([sys.executable, "-c", code],
+                         env=env | {"OPENBLAS_NUM_THREADS": "3"}, capture_output=True,
+                         text=True, check=True).stdout.split()
+    assert out[0] == "3"  # the user's setting wins
