@@ -160,8 +160,8 @@ class CsvLog:
         self.append_rows((row,))
 
     def append_rows(self, rows) -> None:
-        """Write several rows in one write (a step's Newton iterations): a reader sees
-        all of them or none; nothing is written if any row is wrong."""
+        """Write several rows (a step's Newton iterations) with one write and one flush;
+        nothing is written if any row is wrong."""
         if self._file.closed:
             raise ValueError(f"{self.path} is closed")
         lines = [self._line(row) for row in rows]

@@ -11,7 +11,7 @@ class PhaseTimer:
 
     def __init__(self):
         self.totals = defaultdict(float)
-        self._phases: dict[str, _Phase] = {}  # one per phase: a step enters them thousands of times
+        self._phases: dict[str, _Phase] = {}  # reused: a run enters them thousands of times
 
     def __call__(self, phase: str):
         timed = self._phases.get(phase)
