@@ -284,7 +284,7 @@ class _KeptValues:
 
 @dataclass(frozen=True, eq=False)
 class LaggedDamping:
-    """Rayleigh damping frozen at the start of a step: D = (k/h)·w∇²Ψ(xₙ)."""
+    """Rayleigh damping frozen at the start of a step: D = (k/h)·∇²Ψ(xₙ)."""
 
     x_start: np.ndarray  # (n, 3) xₙ
     triplets: "ElementHessian"  # D as blocks on the elastic Hessian's pattern, values kept
