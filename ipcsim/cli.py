@@ -16,10 +16,10 @@ import sys
 import warnings
 from typing import NoReturn
 
-# numpy's BLAS on one thread unless the user says otherwise, set before numpy loads it:
-# ipcsim's BLAS calls are on single vectors (the kernels and CHOLMOD do the heavy work
-# without it), and OpenBLAS's idle worker spins at start-up, about 0.1 s of another
-# core's time per run, taken from whatever else runs there.
+# OpenBLAS (numpy's, and kvxopt's under CHOLMOD) on one thread unless the user says
+# otherwise, set before numpy loads it: its idle worker spins, about 0.1 s of another
+# core at every start and, beside numba's threads, their time; CHOLMOD's factorisations
+# measured no slower on one BLAS thread (docs/benchmarks.md, "numpy's BLAS threads").
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402  (after the BLAS setting)

@@ -12,8 +12,9 @@ to be installed.
   ahead of time (``aot.py``), and numba's thread pool is never started.
 
 ``NUMBA_THREADING_LAYER`` and ``NUMBA_NUM_THREADS`` set by the user win, and
-``IPCSIM_THREADS`` fixes the count. numpy's BLAS is kept on one thread by the command
-line (``cli.py``, before numpy loads; ``OPENBLAS_NUM_THREADS`` set by the user wins).
+``IPCSIM_THREADS`` fixes the count. OpenBLAS (numpy's and CHOLMOD's) is kept on one
+thread by the command line (``cli.py``, before numpy loads; ``OPENBLAS_NUM_THREADS`` set
+by the user wins).
 """
 
 from __future__ import annotations
