@@ -670,7 +670,8 @@ def verdict_text(r: dict) -> str:
 
 
 HEADER = ("| scene | vertices | steps | original s | ipcsim s | ipcsim / original "
-          "| CPU s, original / ipcsim | steps only s, original / ipcsim | Newton it./step, original / ipcsim "
+          "| CPU s, original / ipcsim | steps only s, original / ipcsim "
+          "| Newton it./step, original / ipcsim "
           "| contacts/step, original / ipcsim | peak MB, original / ipcsim "
           "| exit, original / ipcsim | trajectories (ipcsim compare) |")
 

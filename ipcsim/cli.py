@@ -19,7 +19,7 @@ from typing import NoReturn
 # OpenBLAS (numpy's, and kvxopt's under CHOLMOD) on one thread unless the user says
 # otherwise, set before numpy loads it: its idle worker spins, about 0.1 s of another
 # core at every start and, beside numba's threads, their time; CHOLMOD's factorisations
-# measured no slower on one BLAS thread (docs/benchmarks.md, "numpy's BLAS threads").
+# measured no slower on one BLAS thread (docs/benchmarks.md, "Another machine, ...").
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402  (after the BLAS setting)
