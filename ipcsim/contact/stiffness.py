@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..kernels.barrier import barrier_second_derivative
+from ..kernels.linalg import dot
 from ..records import replaced
 
 
@@ -32,10 +33,12 @@ def kappa_bounds(bbox_diagonal: float, dhat: float, mean_mass: float,
 
 def balanced_kappa(g_barrier: np.ndarray, g_rest: np.ndarray, kappa_min: float,
                    kappa_max: float) -> float:
-    gb2 = float(g_barrier @ g_barrier)
+    g_barrier = np.ascontiguousarray(g_barrier, dtype=np.float64)
+    g_rest = np.ascontiguousarray(g_rest, dtype=np.float64)
+    gb2 = dot(g_barrier, g_barrier)  # summed in index order, as the compiled Newton does
     if gb2 == 0.0:
         return kappa_min
-    return float(np.clip(-(g_barrier @ g_rest) / gb2, kappa_min, kappa_max))
+    return float(np.clip(-dot(g_barrier, g_rest) / gb2, kappa_min, kappa_max))
 
 
 def should_double(prev_min_d_sq: float, min_d_sq: float, eps_sq: float) -> bool:

@@ -371,3 +371,14 @@ def cholesky_solve(L, b, x):
         for k in range(i + 1, n):
             s -= L[k, i] * x[k]
         x[i] = s / L[i, i]
+
+
+@njit(cache=True)
+def dot(a, b):
+    """Σ aᵢ bᵢ in index order: one rounding order wherever it is taken (numpy's BLAS
+    sums in blocks whose order depends on the build and the machine, and a compiled
+    Newton iteration must balance κ exactly as the Python one does)."""
+    s = 0.0
+    for i in range(a.shape[0]):
+        s += a[i] * b[i]
+    return s

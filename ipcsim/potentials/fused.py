@@ -15,7 +15,9 @@ the only place the dense Hessian fits.
 ``line_search`` does a Newton direction's line search in one call the same way
 (``kernels/fused_line_search.py``): the terms' step bounds, the mesh's sweep and CCD,
 and the backtracking on these energies, as ``StepObjective.max_step`` and
-``NewtonSolver._line_search`` do it.
+``NewtonSolver._line_search`` do it. ``newton_iterations`` goes further: Newton's
+iterations themselves, evaluation, κ, the dense system, its Cholesky factor, the
+stopping rule and the line search, in one call (``kernels/fused_newton.py``).
 
 Fusing pays where the fused kernels were compiled at install (``available``): left to
 numba, compiling them at a scene's first run took 50 s on two tutorial cubes, more than
@@ -31,7 +33,9 @@ import numpy as np
 
 from ..kernels import fused_terms as kf
 from ..kernels.ccd import DEFAULT_MAX_ITERATIONS, DEFAULT_MIN_GAP_FRACTION
+from ..kernels import fused_newton as kn
 from ..kernels.fused_line_search import line_search as fused_line_search
+from ..contact.setup import ContactCount
 from .base import StepContext, Triplets
 from .body_force import BodyForce
 from .boundary_pull import BoundaryPull
@@ -51,6 +55,12 @@ def available() -> bool:
     """Whether the fused kernels were compiled ahead of time for this process."""
     return all(k.compiled for k in (kf.term_values, kf.term_gradients,
                                      kf.add_term_hessians_dense, fused_line_search))
+
+
+def newton_available() -> bool:
+    """Whether the compiled Newton iterations were compiled ahead of time (numba would
+    take minutes to compile them at a first run)."""
+    return bool(kn.newton_iterations.compiled)
 
 
 def _writeable(a, dtype=float) -> np.ndarray:
@@ -261,3 +271,62 @@ def line_search(fused: FusedTerms, x, p3, kappa: float, ctx: StepContext, mesh,
         tuple(float(by_kind[k]) for k in fused.kinds)
     return LineSearchResult(x_new, float(alpha), float(energy), bool(failed), float(e0),
                             float(ccd_alpha), values, tuple(out[7:]))
+
+
+@dataclass(frozen=True, eq=False)
+class NewtonIterations:
+    """What ``newton_iterations`` did: ``status`` (``kernels/fused_newton.py``'s codes),
+    the next iteration's number, x and the last direction p (3n,), κ's state, E(x) (NaN:
+    not known at this κ), CCD's α, the smallest α, whether the prescribed motion was
+    complete, the rows (k, 8) and the contacts each row ended at (k, 5; NaN where not
+    known yet), the x last evaluated with its collision set, the pairs swept to x and the
+    terms' values by kind from the last line search with its κ (NaN: none)."""
+
+    status: int
+    next: int
+    x: np.ndarray
+    p: np.ndarray
+    stiffness: tuple
+    state: tuple
+    rows: np.ndarray
+    ended_at: tuple
+    x_evaluated: np.ndarray
+    collisions: tuple
+    swept: tuple
+    values: np.ndarray
+    values_kappa: float
+
+
+def newton_iterations(fused: FusedTerms, x, span: tuple[int, int], ctx: StepContext,
+                      contact: tuple, newton: tuple) -> NewtonIterations:
+    """Newton's iterations numbered from ``span`` = (first, cap) in one kernel call,
+    until one Python must do or finish. ``contact``: (collision mesh or None, planes or
+    None, the collision set at x: pt, ee, ε_x, ids, types and d²); ``newton``: (dofs,
+    prescribed, stiffness, ramp, state, settings, pullable) as
+    ``kernels/fused_newton.py`` lists them."""
+    mesh, planes, pairs = contact
+    dofs, prescribed, stiffness, ramp, state, settings, pullable = newton
+    prescribed_dofs, free, free_index, n_free = dofs
+    kinematic, target, motion = prescribed
+    int_pairs = {0, 1, 3, 4, 5, 7}  # pt, ee, their ids and types
+    out = kn.newton_iterations(
+        _writeable(x), int(span[0]), int(span[1]), fused.present, *fused.weighing,
+        fused._data(ctx), _NO_MESH if mesh is None else mesh.kernel_arrays + (True,),
+        fused.bounds,
+        (_writeable(prescribed_dofs, np.bool_), _writeable(free, np.bool_),
+         _writeable(free_index, np.int64), int(n_free)),
+        (_writeable(kinematic, np.bool_), _writeable(target), float(motion)),
+        tuple(_writeable(a, np.int64 if i in int_pairs else float) for i, a in enumerate(pairs)),
+        _NO_PLANES if planes is None else (planes.vertices, planes.origins, planes.normals,
+                                           True),
+        stiffness, (_writeable(ramp[0], np.int64), float(ramp[1]), float(ramp[2])), state,
+        settings, (bool(pullable[0]), _writeable(pullable[1], np.bool_),
+                   _writeable(pullable[2]), float(pullable[3])))
+    contacts = out[7]
+    ended_at = tuple(None if np.isnan(c[4]) else ContactCount(int(c[0]), int(c[1]), int(c[2]),
+                                                              float(c[3]))
+                     for c in contacts.tolist())
+    return NewtonIterations(int(out[0]), int(out[1]), *out[2:7], ended_at, *out[8:])
+
+
+_NO_PLANES = (np.zeros(0, dtype=np.int64), _NO_POINTS, _NO_POINTS, False)

@@ -35,15 +35,18 @@ from functools import cached_property
 import numpy as np
 
 from ..contact.ccd import line_search_bound, unbounded_step
-from ..contact.collisions import Collisions, build_collisions, narrowed_collisions
+from ..contact.collisions import (Collisions, PairDistances, build_collisions,
+                                  narrowed_collisions)
 from ..contact.friction_lag import FrictionLag, lag_friction
 from ..contact.setup import ContactCount, ContactSetup
 from ..contact.stiffness import BarrierStiffness
+from ..kernels.ccd import DEFAULT_MAX_ITERATIONS, DEFAULT_MIN_GAP_FRACTION
 from ..records import replaced
 from .base import StepContext, Triplets
 from .boundary_pull import BoundaryPull, PullSchedule
-from .fused import LineSearchResult
+from .fused import LineSearchResult, NewtonIterations, newton_available
 from .fused import line_search as fused_line_search
+from .fused import newton_iterations as fused_newton_iterations
 from .incremental import IncrementalPotential, TermValues, WeightedTerm
 
 
@@ -241,6 +244,82 @@ class StepObjective:
             self._values_at = (x if found.failed else found.x_new, self.stiffness.kappa,
                                self.revision, found.values)
         return found
+
+    def contacts(self, x: np.ndarray) -> ContactCount:
+        """The contacts at x (``evaluate``'s count)."""
+        with self.timer("contact_set"):
+            return self.contact.count(x, self.collisions(x))
+
+    @property
+    def compiles_newton(self) -> bool:
+        """Whether Newton may run its iterations as one compiled call here
+        (``newton_iterations``): a fused potential and no pull under way."""
+        return (self.potential.fused is not None and self.pull is None
+                and newton_available())
+
+    @cached_property
+    def _pull_may_take(self) -> tuple:
+        """(whether a pull may start, the vertices it may take, xₙ, the completion that
+        ends a pull): what the compiled iterations test after the first one."""
+        if self.pullable is None:
+            return (False, np.zeros(len(self.ctx.x_start), np.bool_), self.ctx.x_start,
+                    PullSchedule.done)
+        mass, bodies = self.pullable
+        return (True, np.ascontiguousarray(bodies & (mass > 0.0)),
+                np.ascontiguousarray(self.ctx.x_start, dtype=float), PullSchedule.done)
+
+    def newton_iterations(self, x: np.ndarray, first: int, cap: int, dofs, motion: float,
+                          energy, progress: tuple, settings: tuple) -> NewtonIterations:
+        """Newton's iterations from x, numbered from ``first``, in one compiled call
+        (``fused.newton_iterations``), adopting what they leave as ``evaluate``,
+        ``line_search`` and ``took`` would: κ, CCD's α, the collision set of the last x
+        evaluated, the pairs swept to x and the terms' values there. ``dofs`` (prescribed,
+        free, free numbers, count), ``motion`` the prescribed motion at the solve's
+        start, ``energy`` E(x) at the κ in force or None, ``progress`` (smallest α so
+        far, prescribed motion complete), ``settings`` (tol, halvings, kinematic
+        completion)."""
+        with self.timer("contact_set"):
+            collisions = self.collisions(x)
+        self.ctx = replaced(self.ctx, collisions=collisions)
+        c = Collisions.empty() if collisions is None else collisions
+        d = c.distances or PairDistances(np.zeros(0, np.int64), np.zeros(0),
+                                         np.zeros(0, np.int64), np.zeros(0))
+        pairs = (c.pt, c.ee, c.ee_eps_x, c.pt_id, c.ee_id, d.pt_type, d.pt_d2, d.ee_type,
+                 d.ee_d2)
+        st = self.stiffness
+        adaptive = self.contact.adaptive_kappa and st.adaptive
+        friction = self.potential.term("friction")
+        ramp = ((friction.body if friction.body is not None
+                 else np.zeros(len(x), np.int64), float(friction.eps),
+                 float(friction.ramp_resolution)) if friction is not None
+                else (np.zeros(0, np.int64), 1.0, 0.0))
+        out = fused_newton_iterations(
+            self.potential.fused, x, (first, cap), self.ctx,
+            (self.contact.mesh, self.contact.planes, pairs),
+            ((dofs.prescribed, dofs.free, dofs.index, dofs.n_free),
+             (self.kinematic, self.target, float(motion)),
+             (float(st.kappa), float(st.kappa_min), float(st.kappa_max), float(st.eps_sq),
+              bool(adaptive), bool(st.balanced), float(st.min_distance_sq)),
+             ramp, (np.nan if energy is None else float(energy), float(self.last_ccd_alpha),
+                    float(progress[0]), bool(progress[1])),
+             (float(settings[0]), int(settings[1]), float(settings[2]),
+              float(self.contact.dhat), DEFAULT_MIN_GAP_FRACTION, DEFAULT_MAX_ITERATIONS),
+             self._pull_may_take))
+        kappa, balanced, min_distance_sq = out.stiffness
+        self.stiffness = replaced(st, kappa=float(kappa), balanced=bool(balanced),
+                                  min_distance_sq=float(min_distance_sq))
+        if self.contact.mesh is not None:
+            self.last_ccd_alpha = float(out.state[1])
+            pt, ee, eps_x, pt_id, ee_id, *distances = out.collisions
+            evaluated = Collisions(pt, ee, eps_x, PairDistances(*distances), pt_id, ee_id)
+            self._collisions_at = (out.x_evaluated.copy(), evaluated)
+            self.ctx = replaced(self.ctx, collisions=evaluated)
+            self.took(out.x, Collisions(*out.swept[:3], None, *out.swept[3:]))
+        fused = self.potential.fused
+        if not np.isnan(out.values[fused.kinds[0]]):
+            self._values_at = (out.x, float(out.values_kappa), self.revision,
+                               tuple(float(out.values[k]) for k in fused.kinds))
+        return out
 
     def _snap_reach(self, x: np.ndarray) -> float:
         k = self.kinematic

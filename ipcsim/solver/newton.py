@@ -31,8 +31,21 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..errors import NonFiniteError, SolverError
+from ..kernels.fused_newton import (CONVERGED, FOLLOW_UP, ITERATION_CAP,
+                                    LINE_SEARCH_FAILED)
+from ..kernels.linalg import dot
 from .assembly import Assembler, DenseAssembler
 from .timing import PhaseTimer
+
+
+_ROW_KEYS = ("iteration", "step_inf_norm", "tolerance", "gradient_norm", "kappa",
+             "residual_ratio", "alpha", "energy")  # the compiled iterations' row columns
+
+
+def _norm(v: np.ndarray) -> float:
+    """‖v‖₂ summed in index order, as the compiled iterations sum it."""
+    v = np.ascontiguousarray(v, dtype=np.float64)
+    return float(np.sqrt(dot(v, v)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -145,9 +158,15 @@ class NewtonSolver:
         run.kinematic_complete = run.prescribed == 0.0
         energy = None  # E(x), known after a line search
         potential = None  # (κ, the objective's revision) of that energy
-        for it in range(self.settings.max_newton_iterations):
+        first = 0
+        if isinstance(self.assembler, DenseAssembler) and getattr(objective,
+                                                                   "compiles_newton", False):
+            x, first, energy, potential, finished = self._compiled(objective, x, run)
+            if finished is not None:
+                return finished
+        for it in range(first, self.settings.max_newton_iterations):  # the loop as written
             ev = objective.evaluate(x, 2)
-            self._complete_last_row(run, ev)
+            self._complete_last_row(run, ev.contacts)
             if (ev.kappa, objective.revision) != potential:
                 energy = None  # the potential itself changed (κ, a pull)
                 potential = (ev.kappa, objective.revision)
@@ -160,7 +179,7 @@ class NewtonSolver:
             free = self._dofs(objective.kinematic).free
             step_norm = np.abs(p[free]).max(initial=0.0)
             row = {"iteration": it, "step_inf_norm": step_norm, "tolerance": tol,
-                   "gradient_norm": float(np.linalg.norm(ev.gradient[free])),
+                   "gradient_norm": _norm(ev.gradient[free]),
                    "kappa": ev.kappa,
                    "residual_ratio": step_norm / tol if tol > 0 else np.nan}
             converged = (run.kinematic_complete and step_norm < tol
@@ -193,6 +212,61 @@ class NewtonSolver:
             objective.follow_up(x, p, first=it == 0)  # may pull prescribed vertices
         run.iterations = self.settings.max_newton_iterations
         return self._finish(objective, x, run, converged=False, hit_cap=True)
+
+    def _compiled(self, objective, x, run: _Progress):
+        """The iterations run as one compiled call (``StepObjective.newton_iterations``)
+        for as long as the objective allows: (x, the next iteration's number, E(x) or
+        None with its (κ, revision), the result when the solve is finished there, else
+        None: the loop of ``solve`` goes on from that iteration)."""
+        settings = self.settings
+        cap, first = settings.max_newton_iterations, 0
+        energy = None
+        while True:
+            if run.rows and "contacts_total" not in run.rows[-1]:
+                # the row before ends where these iterations start
+                self._complete_last_row(run, objective.contacts(x))
+            with self.timer("newton"):
+                out = objective.newton_iterations(
+                    x, first, cap, self._dofs(objective.kinematic), run.prescribed, energy,
+                    (run.min_alpha, run.kinematic_complete),
+                    (run.tol, settings.max_halvings, settings.kinematic_completion))
+            self._add_rows(run, out.rows, out.ended_at)
+            x, first = out.x, out.next
+            energy = None if np.isnan(out.state[0]) else float(out.state[0])
+            potential = (objective.stiffness.kappa, objective.revision)
+            run.min_alpha, run.kinematic_complete = float(out.state[2]), bool(out.state[3])
+            status = out.status
+            if status == CONVERGED:
+                run.iterations = first
+                return x, first, energy, potential, self._finish(objective, x, run,
+                                                                 converged=True)
+            if status == LINE_SEARCH_FAILED:
+                run.line_search_failures += 1
+                run.min_alpha = 0.0
+                run.iterations = first
+                step_norm = run.rows[-1]["step_inf_norm"]
+                return x, first, energy, potential, self._finish(
+                    objective, x, run,
+                    converged=step_norm < settings.roundoff_tolerance_factor * run.tol)
+            if status == ITERATION_CAP:
+                run.iterations = cap
+                return x, first, energy, potential, self._finish(
+                    objective, x, run, converged=False, hit_cap=True)
+            if status == FOLLOW_UP:
+                objective.follow_up(x, out.p, first=True)
+                if objective.compiles_newton:
+                    continue
+            return x, first, energy, potential, None  # HAND_BACK, or a pull began
+
+    def _add_rows(self, run: _Progress, rows: np.ndarray, ended_at: tuple) -> None:
+        """The compiled iterations' rows as ``solve`` writes them; each row but the last
+        is complete (its contacts are the next iterate's) and goes to the observer."""
+        for values, contacts in zip(rows.tolist(), ended_at):
+            row = dict(zip(_ROW_KEYS, values))
+            row["iteration"] = int(row["iteration"])
+            run.rows.append(row)
+            if contacts is not None:
+                self._complete_last_row(run, contacts)
 
     def _system(self, objective, x, ev, run: _Progress) -> "_System":
         """The Newton system over the free DOFs at x (assembled from ev's Hessian) and the
@@ -297,10 +371,10 @@ class NewtonSolver:
             alpha *= 0.5
         return 0.0, True, e0
 
-    def _complete_last_row(self, run: _Progress, ev) -> None:
+    def _complete_last_row(self, run: _Progress, contacts) -> None:
         """The previous iteration's row gets the contacts at the iterate it ended at."""
         if run.rows and "contacts_total" not in run.rows[-1]:
-            run.rows[-1].update(ev.contacts.as_row())
+            run.rows[-1].update(contacts.as_row())
             if self.observer is not None:
                 self.observer(run.rows[-1])
 
@@ -309,7 +383,7 @@ class NewtonSolver:
         final = objective.evaluate(x, 0)
         if not np.isfinite(final.energy):
             raise NonFiniteError("energy", objective.nonfinite_terms(x), run.iterations)
-        self._complete_last_row(run, final)
+        self._complete_last_row(run, final.contacts)
         return NewtonResult(x=x, final=final, iterations=run.iterations, converged=converged,
                             hit_iteration_cap=hit_cap, min_alpha=run.min_alpha,
                             kinematic_complete=run.kinematic_complete,

@@ -1,0 +1,189 @@
+"""Newton's iterations as one compiled call (kernels/fused_newton.py) are the Python loop's
+bit for bit: every iterate, κ, row and contact count, on two small boxes in contact with
+each other and the ground (friction, Newmark with damping, prescribed vertices that CCD
+stops and a pull takes over), at the iteration cap, where the line search gives up, and
+where an iteration would raise (Python does it again and names the culprit)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import ipcsim.potentials.fused as fused_module
+from ipcsim.errors import NonFiniteError
+from ipcsim.kernels import fused_newton as kn
+from ipcsim.model.builder import build_model
+from ipcsim.potentials.objective import StepObjective
+from ipcsim.records import replaced
+from ipcsim.scene import load_scene
+from ipcsim.simulation import Simulation
+
+from generated import write_box_msh
+
+TWO_BOXES = """shapes input 2
+box.msh 0 0.0005 0  0 0 0  1 1 1
+box.msh 0 0.2012 0  0 0 0  1 1 1{top}
+selfFric 0.2
+ground 0.3 0
+time 1 0.01
+{extra}
+"""
+DRIVEN = "  DBC -0.1 0.9 -0.1  1.1 1.1 1.1  {velocity}  0 0 0"
+
+SCENES = {
+    "backward Euler, friction": TWO_BOXES.format(top="", extra=""),
+    "Newmark, damping": TWO_BOXES.format(top="", extra="timeIntegration NM\ndampingRatio 0.1"),
+    "top face driven down": TWO_BOXES.format(top=DRIVEN.format(velocity="0 -1 0"), extra=""),
+    "top face driven sideways": TWO_BOXES.format(top=DRIVEN.format(velocity="0.5 0 0"),
+                                                 extra=""),
+    # CCD stops the prescribed vertices at the ground, and a pull takes over
+    "bottom face driven into the ground": """shapes input 1
+box.msh 0 0.0005 0  0 0 0  1 1 1  DBC -0.1 -0.1 -0.1  1.1 0.1 1.1  0 -1 0  0 0 0
+ground 0.2 0
+time 1 0.01
+""",
+    "no mesh contact": """shapes input 1
+box.msh 0 0.0005 0  0 0 0  1 1 1
+ground 0.3 0
+time 1 0.01
+""",
+}
+
+
+def simulation(tmp_path, scene: str, compiled: bool, monkeypatch) -> Simulation:
+    """A simulation of ``scene`` whose Newton compiles its iterations or does not (the
+    fused terms either way: 16 vertices make a dense Newton matrix)."""
+    write_box_msh(tmp_path / "box.msh", cells=(1, 1, 1))
+    (tmp_path / "scene.txt").write_text(scene)
+    sim = Simulation(build_model(load_scene(tmp_path / "scene.txt")))
+    if sim.potential.fused is None:
+        sim.potential = sim.potential.fusing()
+    assert sim.potential.fused is not None
+    sim.compiled_newton = compiled
+    return sim
+
+
+@pytest.fixture
+def statuses(monkeypatch):
+    """The compiled iterations' statuses, call by call; ``sim.compiled_newton`` picks
+    whether a simulation's Newton may compile its iterations."""
+    seen = []
+    call = fused_module.newton_iterations
+
+    def spy(*args, **kwargs):
+        out = call(*args, **kwargs)
+        seen.append(out.status)
+        return out
+
+    monkeypatch.setattr("ipcsim.potentials.objective.fused_newton_iterations", spy)
+    return seen
+
+
+def step_both(compiled: Simulation, plain: Simulation, monkeypatch, steps: int = 12):
+    """Step both simulations side by side; the rows of every step must be equal."""
+    for _ in range(steps):
+        reports = []
+        for sim in (compiled, plain):
+            monkeypatch.setattr("ipcsim.potentials.objective.newton_available",
+                                lambda on=sim.compiled_newton: on)
+            reports.append(sim.step())
+        assert same_rows(reports[0].newton, reports[1].newton)
+        assert same_rows([reports[0].row], [reports[1].row], skip="wall_")
+    assert np.array_equal(compiled.state.x, plain.state.x)
+    assert np.array_equal(compiled.state.v, plain.state.v)
+    assert compiled.state.kappa == plain.state.kappa
+
+
+def same_rows(a, b, skip: str | None = None) -> bool:
+    """Rows equal key for key, in order, value for value (NaN equal to NaN) and type."""
+    if len(a) != len(b):
+        return False
+    for ra, rb in zip(a, b):
+        keys = [k for k in ra if skip is None or not k.startswith(skip)]
+        if keys != [k for k in rb if skip is None or not k.startswith(skip)]:
+            return False
+        for k in keys:
+            u, v = ra[k], rb[k]
+            if type(u) is not type(v) and not (isinstance(u, float) and isinstance(v, float)):
+                return False
+            if not (u == v or (isinstance(u, float) and math.isnan(u) and math.isnan(v))):
+                return False
+    return True
+
+
+@pytest.mark.parametrize("scene", SCENES)
+def test_compiled_iterations_are_the_python_loops(tmp_path, monkeypatch, statuses, scene):
+    compiled, plain = (simulation(tmp_path, SCENES[scene], on, monkeypatch)
+                       for on in (True, False))
+    pulls = []
+    start_pull = StepObjective._start_pull
+    monkeypatch.setattr(StepObjective, "_start_pull",
+                        lambda self, x: (pulls.append(self), start_pull(self, x))[1])
+    step_both(compiled, plain, monkeypatch)
+    if scene == "bottom face driven into the ground":
+        # after each first iteration Python decides on a pull; one took over
+        assert kn.FOLLOW_UP in statuses and any(p.revision for p in pulls)
+    else:
+        assert statuses.count(kn.CONVERGED) >= 8  # the compiled iterations ended most steps
+
+
+def test_the_iteration_cap_is_the_python_loops(tmp_path, monkeypatch, statuses):
+    compiled, plain = (simulation(tmp_path, SCENES["backward Euler, friction"], on,
+                                  monkeypatch) for on in (True, False))
+    for sim in (compiled, plain):
+        sim.newton.settings = replaced(sim.newton.settings, max_newton_iterations=2)
+    step_both(compiled, plain, monkeypatch, steps=4)
+    assert kn.ITERATION_CAP in statuses
+    assert compiled.step().result.hit_iteration_cap
+
+
+def test_a_line_search_that_gives_up_is_the_python_loops(tmp_path, monkeypatch, statuses):
+    """A tolerance no step reaches: the line search gives up at round-off."""
+    compiled, plain = (simulation(tmp_path, SCENES["backward Euler, friction"], on,
+                                  monkeypatch) for on in (True, False))
+    for sim in (compiled, plain):
+        sim.tolerance = lambda step: 1e-300
+    step_both(compiled, plain, monkeypatch, steps=3)
+    assert kn.LINE_SEARCH_FAILED in statuses
+
+
+def test_an_iteration_that_would_raise_is_done_again_in_python(tmp_path, monkeypatch,
+                                                               statuses):
+    """A non-finite velocity: the compiled iterations hand back, and Python names the
+    term, as without them."""
+    errors = []
+    for on in (True, False):
+        sim = simulation(tmp_path, SCENES["backward Euler, friction"], on, monkeypatch)
+        monkeypatch.setattr("ipcsim.potentials.objective.newton_available", lambda on=on: on)
+        sim.step()
+        v = sim.state.v.copy()
+        v[3, 1] = np.nan
+        sim.state = replaced(sim.state, v=v)
+        with pytest.raises(NonFiniteError) as caught:
+            sim.step()
+        errors.append(str(caught.value))
+    assert kn.HAND_BACK in statuses
+    assert errors[0] == errors[1]
+
+
+def test_kappas_balance_is_summed_in_index_order():
+    """κ's balance and the logged gradient norm sum in index order on both sides (numpy's
+    BLAS sums in blocks whose order depends on the build)."""
+    from ipcsim.contact.stiffness import balanced_kappa
+    from ipcsim.kernels.linalg import dot
+    from ipcsim.solver.newton import _norm
+
+    rng = np.random.default_rng(7)
+    gb, gr = rng.normal(size=101), rng.normal(size=101) * 1e3
+    in_order = 0.0
+    for a, b in zip(gb.tolist(), gr.tolist()):
+        in_order += a * b
+    assert dot(gb, gr) == in_order
+    squares = 0.0
+    for a in gb.tolist():
+        squares += a * a
+    assert _norm(gb) == math.sqrt(squares)
+    assert balanced_kappa(gb, gr, -np.inf, np.inf) == -in_order / squares
+    assert balanced_kappa(gb, gr, 1e9, 2e9) == 1e9 and balanced_kappa(0 * gb, gr, 5.0, 6.0) == 5.0
