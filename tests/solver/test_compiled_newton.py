@@ -49,6 +49,17 @@ box.msh 0 0.0005 0  0 0 0  1 1 1
 ground 0.3 0
 time 1 0.01
 """,
+    # no free DOFs: every direction is the prescribed motion, or nothing at all
+    "every vertex prescribed, at rest": """shapes input 1
+box.msh 0 0.5 0  0 0 0  1 1 1  DBC -0.1 -0.1 -0.1  1.1 1.1 1.1  0 0 0  0 0 0
+ground 0.3 0
+time 1 0.01
+""",
+    "every vertex prescribed, moving": """shapes input 1
+box.msh 0 0.5 0  0 0 0  1 1 1  DBC -0.1 -0.1 -0.1  1.1 1.1 1.1  0.3 0 0  0 0 0
+ground 0.3 0
+time 1 0.01
+""",
 }
 
 
@@ -82,7 +93,9 @@ def statuses(monkeypatch):
 
 
 def step_both(compiled: Simulation, plain: Simulation, monkeypatch, steps: int = 12):
-    """Step both simulations side by side; the rows of every step must be equal."""
+    """Step both simulations side by side; the rows of every step must be equal.
+    Returns the newton.csv rows of every step."""
+    rows = []
     for _ in range(steps):
         reports = []
         for sim in (compiled, plain):
@@ -91,9 +104,11 @@ def step_both(compiled: Simulation, plain: Simulation, monkeypatch, steps: int =
             reports.append(sim.step())
         assert same_rows(reports[0].newton, reports[1].newton)
         assert same_rows([reports[0].row], [reports[1].row], skip="wall_")
+        rows.append(reports[0].newton)
     assert np.array_equal(compiled.state.x, plain.state.x)
     assert np.array_equal(compiled.state.v, plain.state.v)
     assert compiled.state.kappa == plain.state.kappa
+    return rows
 
 
 def same_rows(a, b, skip: str | None = None) -> bool:
@@ -125,8 +140,23 @@ def test_compiled_iterations_are_the_python_loops(tmp_path, monkeypatch, statuse
     if scene == "bottom face driven into the ground":
         # after each first iteration Python decides on a pull; one took over
         assert kn.FOLLOW_UP in statuses and any(p.revision for p in pulls)
+    elif scene == "every vertex prescribed, at rest":  # nothing to do: no line search
+        assert all(r["alpha"] == 0.0 for r in plain.step().newton)
     else:
         assert statuses.count(kn.CONVERGED) >= 8  # the compiled iterations ended most steps
+
+
+def test_kappas_doubling_is_the_python_loops(tmp_path, monkeypatch, statuses):
+    """κ doubles while the closest contact keeps closing in below dTol: here dTol is d̂
+    itself, so that it does in a short run."""
+    compiled, plain = (simulation(tmp_path, SCENES["backward Euler, friction"], on,
+                                  monkeypatch) for on in (True, False))
+    for sim in (compiled, plain):
+        sim.stiffness = replaced(sim.stiffness, eps_sq=sim.model.dhat ** 2)
+    steps = step_both(compiled, plain, monkeypatch, steps=20)
+    assert statuses.count(kn.CONVERGED) >= 15
+    doubled = [b["kappa"] == 2.0 * a["kappa"] for rows in steps for a, b in zip(rows, rows[1:])]
+    assert any(doubled)
 
 
 def test_the_iteration_cap_is_the_python_loops(tmp_path, monkeypatch, statuses):
