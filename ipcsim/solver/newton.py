@@ -22,6 +22,11 @@ Stopping rule, as the original: ‖p‖∞ < tol (absolute, tol·l·h) with the 
 and the objective's own test of p (``resolved``: friction's static ramp); the
 converged direction is still taken (it costs no solve), so a step always moves by at least
 one Newton direction and a slow body does not stall below the tolerance.
+
+On a small scene (a dense system, the terms fused, no pull under way) the iterations run
+as one compiled call (``kernels/fused_newton.py``): the loop of ``solve`` step by step,
+bit for bit. The loop here is the reference it mirrors, and takes over wherever the
+compiled iterations hand back (a pull to decide on, an iteration that would raise).
 """
 
 from __future__ import annotations
