@@ -30,11 +30,12 @@ from .model.kinematics import kinematic_targets, nbc_accelerations
 from .model.surface import index_set
 from .potentials.base import StepContext, Triplets
 from .potentials.fused import available as fused_kernels_available
+from .potentials.fused import newton_available
 from .potentials.objective import StepObjective
 from .potentials.terms import incremental_potential
 from .records import replaced
 from .solver.integrator import fix_kinematic_velocities, kinetic_energy, make_integrator
-from .solver.linear import make_solver
+from .solver.linear import DENSE_UP_TO, DENSE_WITH_COMPILED_NEWTON_UP_TO, make_solver
 from .solver.newton import NewtonResult, NewtonSolver
 from .solver.timing import PhaseTimer
 
@@ -99,16 +100,20 @@ class Simulation:
         self.potential = incremental_potential(model, self.integrator.force_weight)
         self.contact = ContactSetup.from_model(model)
         self.timer = PhaseTimer()
-        # free DOFs never exceed 3n: a small scene's "auto" solver factors dense
-        self.linear_solver = make_solver(linear_solver or model.solver.linear_solver,
-                                         3 * model.n_vertices)
+        # a dense Newton matrix takes the terms evaluated and added into it together
+        # (warm start 5 reads their triplets, the baselines their sparse Hessian)
+        fused = (self.potential.fusing() if model.constraint_solver is None
+                 and model.solver.warm_start != 5 and fused_kernels_available() else None)
+        compiled = fused is not None and fused.fused is not None and newton_available()
+        # free DOFs never exceed 3n: a small scene's "auto" solver factors dense, up to a
+        # larger size where Newton's iterations then run compiled
+        self.linear_solver = make_solver(
+            linear_solver or model.solver.linear_solver, 3 * model.n_vertices,
+            dense_up_to=DENSE_WITH_COMPILED_NEWTON_UP_TO if compiled else DENSE_UP_TO)
         self.newton = NewtonSolver(model.solver, self.linear_solver, self.timer,
                                    observer=self._observe)
-        if (getattr(self.linear_solver, "dense", False) and model.constraint_solver is None
-                and model.solver.warm_start != 5 and fused_kernels_available()):
-            # a dense Newton matrix: the terms are evaluated and added into it together
-            # (warm start 5 reads their triplets, the baselines their sparse Hessian)
-            self.potential = self.potential.fusing()
+        if getattr(self.linear_solver, "dense", False) and fused is not None:
+            self.potential = fused
         self.on_iteration = None  # called with each newton.csv row as it completes (-v)
         self.stiffness = _initial_stiffness(model, self.contact)
         self.state = _initial_state(model, self.stiffness.kappa)

@@ -22,7 +22,9 @@ the floor of a Newton iteration, so the fastest installed factorisation is the d
 ``AUTO_ORDER`` is what ``None``/``"auto"`` tries: cholmod, then scipy. Systems of at most
 ``DENSE_UP_TO`` DOFs (the tutorial scenes' two cubes: 48) get ``DenseSolver`` instead: a
 dense Cholesky factor (a compiled kernel), 1.5× faster there than CHOLMOD's call, whose
-setup outweighs the arithmetic at that size (and kvxopt is then never imported).
+setup outweighs the arithmetic at that size (and kvxopt is then never imported). Where
+Newton's iterations run as one compiled call (a fused small scene), up to
+``DENSE_WITH_COMPILED_NEWTON_UP_TO`` DOFs.
 
 Every backend accepts the full symmetric matrix as CSC or CSR (for a symmetric matrix the
 two share their arrays) and reads only its lower triangle (= upper triangle in CSR, which
@@ -487,6 +489,10 @@ SOLVERS = {"cholmod": CholmodSolver, "pardiso": PardisoSolver, "scipy": ScipySol
 AUTO_ORDER = ("cholmod", "scipy")
 # "auto" factors systems of at most this many DOFs dense (DenseSolver)
 DENSE_UP_TO = 60
+# ... and of at most this many where Newton's iterations run compiled (the fused terms of
+# a small scene): the Python they save outweighs the dense factor's n³ up to about 170
+# DOFs (docs/linear-solvers.md)
+DENSE_WITH_COMPILED_NEWTON_UP_TO = 150
 # the original's names and other spellings
 ALIASES = {"eigen": "scipy", "amgcl": "scipy", "superlu": "scipy", "mkl": "pardiso"}
 
@@ -502,9 +508,10 @@ def available_solvers() -> list[str]:
     return names
 
 
-def make_solver(name: str | None = None, n_dofs: int | None = None):
+def make_solver(name: str | None = None, n_dofs: int | None = None,
+                dense_up_to: int = DENSE_UP_TO):
     """The named solver, or the fastest one installed for ``None``/``"auto"``: for
-    systems of at most ``n_dofs`` DOFs (when known) up to ``DENSE_UP_TO``, ``DenseSolver``.
+    systems of at most ``n_dofs`` DOFs (when known) up to ``dense_up_to``, ``DenseSolver``.
 
     The original's names map onto ours: CHOLMOD -> cholmod, EIGEN/AMGCL -> scipy.
     Unknown names raise ValueError; a known backend that is not installed raises
@@ -513,7 +520,7 @@ def make_solver(name: str | None = None, n_dofs: int | None = None):
     key = (name or "auto").lower()
     key = ALIASES.get(key, key)
     if key == "auto":
-        if n_dofs is not None and n_dofs <= DENSE_UP_TO:
+        if n_dofs is not None and n_dofs <= dense_up_to:
             return DenseSolver()
         for candidate in AUTO_ORDER:
             try:

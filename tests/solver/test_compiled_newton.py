@@ -217,3 +217,22 @@ def test_kappas_balance_is_summed_in_index_order():
     assert _norm(gb) == math.sqrt(squares)
     assert balanced_kappa(gb, gr, -np.inf, np.inf) == -in_order / squares
     assert balanced_kappa(gb, gr, 1e9, 2e9) == 1e9 and balanced_kappa(0 * gb, gr, 5.0, 6.0) == 5.0
+
+
+@pytest.mark.parametrize("cells, dense", [((2, 2, 2), True), ((2, 2, 3), True),
+                                          ((3, 3, 3), False)])
+def test_auto_factors_dense_up_to_150_dofs_where_newton_runs_compiled(tmp_path, monkeypatch,
+                                                                      cells, dense):
+    """Boxes of 27, 36 and 64 vertices (81, 108 and 192 DOFs): dense where Newton's
+    iterations run compiled up to DENSE_WITH_COMPILED_NEWTON_UP_TO, above DENSE_UP_TO
+    never otherwise."""
+    write_box_msh(tmp_path / "box.msh", cells=cells)
+    (tmp_path / "scene.txt").write_text(SCENES["no mesh contact"])
+    model = build_model(load_scene(tmp_path / "scene.txt"))
+    monkeypatch.setattr("ipcsim.simulation.fused_kernels_available", lambda: True)
+    monkeypatch.setattr("ipcsim.simulation.newton_available", lambda: True)
+    sim = Simulation(model)
+    assert (sim.linear_solver.name == "dense") == dense
+    assert (sim.potential.fused is not None) == dense
+    monkeypatch.setattr("ipcsim.simulation.newton_available", lambda: False)
+    assert Simulation(model).linear_solver.name != "dense"
