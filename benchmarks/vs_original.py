@@ -626,9 +626,13 @@ def _load() -> str:
 
 def describe(info: dict, s: Settings) -> str:
     """The lines above the table: machine, date, load, threads."""
-    commit = f" (commit {info['commit']})" if info.get("commit") else ""
+    # the ipcsim measured is the command installed beside this Python, which need not be
+    # the checkout's own code (a release install of another commit, say)
+    commit = (f"; the benchmark's checkout is at commit {info['commit']}"
+              if info.get("commit") else "")
     return (f"Machine: {info['cpu']}, {info['cores']} cores, {info['memory']}; Python "
-            f"{info['python']}, ipcsim {info['ipcsim']}{commit}.  \n"
+            f"{info['python']}, ipcsim {info['ipcsim']} (the `ipcsim` installed for the "
+            f"Python that ran this benchmark{commit}).  \n"
             f"Date: {info['date']}; load average (1, 5, 15 min) {info['load_before']} before,"
             f" {info.get('load_after', '')} after.  \n"
             f"{s.threads} thread(s) per program; times are medians over the repeats; "
