@@ -236,3 +236,27 @@ def test_auto_factors_dense_up_to_150_dofs_where_newton_runs_compiled(tmp_path, 
     assert (sim.potential.fused is not None) == dense
     monkeypatch.setattr("ipcsim.simulation.newton_available", lambda: False)
     assert Simulation(model).linear_solver.name != "dense"
+
+
+def test_the_kinematic_completion_rule_is_the_python_loops(tmp_path, monkeypatch, statuses):
+    """The prescribed motion counts as done once what remains is at most 0.1 % of the
+    motion at the solve's start. With that start measured 200 times too large, what
+    remains at the first iteration is 0.5 % of it: still to be done, on both sides."""
+    from ipcsim.solver import newton
+
+    class Scaled(newton._Progress):
+        def __init__(self, prescribed, tol):
+            super().__init__(200.0 * prescribed, tol)
+
+    compiled, plain = (simulation(tmp_path, SCENES["top face driven sideways"], on,
+                                  monkeypatch) for on in (True, False))
+    made = []  # the motion at each solve's start
+
+    def progress(prescribed, tol):
+        made.append(prescribed)
+        return Scaled(prescribed, tol)
+
+    monkeypatch.setattr(newton, "_Progress", progress)
+    steps = step_both(compiled, plain, monkeypatch, steps=4)
+    assert statuses.count(kn.CONVERGED) >= 3 and min(made) > 0.0  # there was motion
+    assert all(rows[0]["alpha"] > 0.0 for rows in steps)  # and it was still taken
