@@ -17,8 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..kernels.barrier import barrier_second_derivative
-from ..kernels.linalg import dot
+from ..kernels.barrier import (balanced_stiffness, barrier_second_derivative,
+                               stiffness_doubles)
 from ..records import replaced
 
 
@@ -33,17 +33,16 @@ def kappa_bounds(bbox_diagonal: float, dhat: float, mean_mass: float,
 
 def balanced_kappa(g_barrier: np.ndarray, g_rest: np.ndarray, kappa_min: float,
                    kappa_max: float) -> float:
-    g_barrier = np.ascontiguousarray(g_barrier, dtype=np.float64)
-    g_rest = np.ascontiguousarray(g_rest, dtype=np.float64)
-    gb2 = dot(g_barrier, g_barrier)  # summed in index order, as the compiled Newton does
-    if gb2 == 0.0:
-        return kappa_min
-    return float(np.clip(-dot(g_barrier, g_rest) / gb2, kappa_min, kappa_max))
+    """The κ that balances the two gradients (the compiled Newton iterations take the
+    same kernel)."""
+    return float(balanced_stiffness(np.ascontiguousarray(g_barrier, dtype=np.float64),
+                                    np.ascontiguousarray(g_rest, dtype=np.float64),
+                                    float(kappa_min), float(kappa_max)))
 
 
 def should_double(prev_min_d_sq: float, min_d_sq: float, eps_sq: float) -> bool:
     """The original's update: contacts tighter than dTol and getting tighter."""
-    return prev_min_d_sq < eps_sq and min_d_sq < eps_sq and min_d_sq < prev_min_d_sq
+    return bool(stiffness_doubles(float(prev_min_d_sq), float(min_d_sq), float(eps_sq)))
 
 
 @dataclass(frozen=True)

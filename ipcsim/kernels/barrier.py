@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 from ipcsim.kernels.jit import njit
+from ipcsim.kernels.linalg import dot
 
 
 @njit(cache=True)
@@ -53,3 +54,26 @@ def barrier_and_derivatives(s, s_hat):
     db = -2.0 * r * lg - r * r / s  # b' = −2 (s − ŝ) ln(s/ŝ) − (s − ŝ)²/s
     d2b = -2.0 * lg - 4.0 * r / s + (r / s) ** 2  # b'' = −2 ln(s/ŝ) − 4 (s − ŝ)/s + (s − ŝ)²/s²
     return b, db, d2b
+
+
+@njit(cache=True)
+def balanced_stiffness(g_barrier, g_rest, kappa_min, kappa_max):
+    """κ = clamp(−(g_B · g_E) / ‖g_B‖², κ_min, κ_max), κ_min where g_B = 0: the κ that
+    balances the barrier's force against the rest (``contact/stiffness.py``), summed in
+    index order (``linalg.dot``) wherever it is taken."""
+    gb2 = dot(g_barrier, g_barrier)
+    if gb2 == 0.0:
+        return kappa_min
+    kappa = -dot(g_barrier, g_rest) / gb2
+    if kappa < kappa_min:
+        return kappa_min
+    if kappa > kappa_max:
+        return kappa_max
+    return kappa
+
+
+@njit(cache=True)
+def stiffness_doubles(last_d2, d2, eps_sq):
+    """The original's doubling of κ: the closest contact is tighter than dTol (ε² =
+    eps_sq) and getting tighter (squared distances)."""
+    return last_d2 < eps_sq and d2 < eps_sq and d2 < last_d2

@@ -42,6 +42,7 @@ from .friction import ramp_unresolved
 from .fused_line_search import line_search
 from .fused_terms import (FRICTION, MESH_CONTACT, N_KINDS, add_term_hessians_dense,
                           term_gradients, term_values)
+from .barrier import balanced_stiffness, stiffness_doubles
 from .linalg import cholesky_in_place, cholesky_solve, dot
 from .plane_contact import plane_active_count_and_min_distance
 from .twin import kernel
@@ -60,16 +61,15 @@ def _with_pairs(terms, pt, ee, eps_x, active):
 
 
 @kernel()
-def _count(x, planes, has_mesh, pt_d2, ee_d2, s_hat):
-    """``ContactSetup.count``: (plane, point–triangle, edge–edge, smallest distance)."""
+def _count(x, planes, has_mesh, pt_d2, ee_d2, min_d2, s_hat):
+    """``ContactSetup.count``: (plane, point–triangle, edge–edge, smallest distance);
+    ``min_d2`` the pairs' smallest squared distance."""
     plane, dmin = 0, np.inf
     if planes[3]:
         plane, dmin = plane_active_count_and_min_distance(x, planes[0], planes[1], planes[2],
                                                           s_hat)
     n_pt = n_ee = 0
     if has_mesh:
-        min_d2 = min(pt_d2.min() if pt_d2.shape[0] else np.inf,
-                     ee_d2.min() if ee_d2.shape[0] else np.inf)
         n_pt = int(np.count_nonzero(pt_d2 < s_hat))
         n_ee = int(np.count_nonzero(ee_d2 < s_hat))
         dmin = min(dmin, np.sqrt(min_d2))
@@ -113,19 +113,9 @@ def _kappa(gradients, kinds, weights, barrier, free, contacts, dmin, kappa, bala
                     g_barrier[j] += weights[i] * gradients[kinds[i], j]
                 else:
                     g_rest[j] += weights[i] * gradients[kinds[i], j]
-        gb, gr = g_barrier[free], g_rest[free]
-        gb2 = dot(gb, gb)  # ``balanced_kappa``
-        if gb2 == 0.0:
-            kappa = kappa_min
-        else:
-            kappa = -dot(gb, gr) / gb2
-            if kappa < kappa_min:
-                kappa = kappa_min
-            elif kappa > kappa_max:
-                kappa = kappa_max
+        kappa = balanced_stiffness(g_barrier[free], g_rest[free], kappa_min, kappa_max)
         balanced = True
-    d2 = dmin * dmin
-    if last_d2 < eps_sq and d2 < eps_sq and d2 < last_d2:  # ``should_double``
+    if stiffness_doubles(last_d2, dmin * dmin, eps_sq):
         kappa = min(kappa_max, 2.0 * kappa)
     return kappa, balanced
 
@@ -234,10 +224,10 @@ def _evaluate(x, pairs, planes, has_mesh, dhat, present, terms):
     with the pairs at x; each term's gradient) (``StepObjective.evaluate``)."""
     pt, ee, eps_x, pt_d2, ee_d2 = pairs[0], pairs[1], pairs[2], pairs[6], pairs[8]
     s_hat = dhat * dhat
-    counts = _count(x, planes, has_mesh, pt_d2, ee_d2, s_hat)
-    active = has_mesh and pt_d2.shape[0] + ee_d2.shape[0] > 0 and min(
-        pt_d2.min() if pt_d2.shape[0] else np.inf,
-        ee_d2.min() if ee_d2.shape[0] else np.inf) < s_hat  # ``Collisions.may_be_active``
+    min_d2 = min(pt_d2.min() if pt_d2.shape[0] else np.inf,
+                 ee_d2.min() if ee_d2.shape[0] else np.inf)  # ``Collisions._min_d2``
+    counts = _count(x, planes, has_mesh, pt_d2, ee_d2, min_d2, s_hat)
+    active = has_mesh and min_d2 < s_hat  # ``Collisions.may_be_active``
     at_x = _with_pairs(terms, pt, ee, eps_x, active)
     gradients = term_gradients(x, present, at_x[0], at_x[1], at_x[2], at_x[3], at_x[4],
                                at_x[5], at_x[6], at_x[7])
