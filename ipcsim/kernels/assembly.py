@@ -168,22 +168,26 @@ def add_blocks_dense(A, vals, scale, stencils, free_index, p, coupling):
     (nd = 3·nv, B = nd², nv = stencils.shape[1]) couples DOF 3·s[i // 3] + i % 3 with
     DOF 3·s[j // 3] + j % 3, s = stencils[k] (tets, contact stencils)."""
     nd = 3 * stencils.shape[1]
+    dofs = np.empty(nd, np.int64)  # the stencil's DOFs, and their free numbers
+    free = np.empty(nd, np.int64)
     t = 0
     for k in range(stencils.shape[0]):
         for i in range(nd):
-            r = free_index[3 * stencils[k, i // 3] + i % 3]
+            dofs[i] = 3 * stencils[k, i // 3] + i % 3
+            free[i] = free_index[dofs[i]]
+        for i in range(nd):
+            r = free[i]
             if r < 0:
                 t += nd
                 continue
             for j in range(nd):
-                g = 3 * stencils[k, j // 3] + j % 3
                 v = scale * vals[t]
                 t += 1
-                c = free_index[g]
+                c = free[j]
                 if c >= 0:
                     A[r, c] += v
                 else:
-                    coupling[r] += v * p[g]
+                    coupling[r] += v * p[dofs[j]]
 
 
 # --- the fixed pattern of inertia, elasticity and damping -------------------------------

@@ -58,12 +58,17 @@ def block_matvec(vals, scale, elements, v):
     D·Δx, without building D as a sparse matrix)."""
     nd = 3 * elements.shape[1]
     out = np.zeros(v.shape[0])
+    dofs = np.empty(nd, np.int64)  # the element's DOFs, and v there
+    v_e = np.empty(nd)
     t = 0
     for e in range(elements.shape[0]):
+        for j in range(nd):
+            dofs[j] = 3 * elements[e, j // 3] + j % 3
+            v_e[j] = v[dofs[j]]
         for i in range(nd):
             total = 0.0
             for j in range(nd):
-                total += vals[t] * v[3 * elements[e, j // 3] + j % 3]
+                total += vals[t] * v_e[j]
                 t += 1
-            out[3 * elements[e, i // 3] + i % 3] += scale * total
+            out[dofs[i]] += scale * total
     return out

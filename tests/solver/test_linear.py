@@ -388,3 +388,46 @@ def test_dense_solver_factors_a_dense_array_in_place():
     indefinite = np.ascontiguousarray(A.toarray() - 2.0 * np.abs(A).max() * np.eye(A.shape[0]))
     with pytest.raises(SolverError, match="Cholesky"):
         solver.solve(indefinite, b)
+
+
+def _cholesky_row_by_row(A):
+    """The textbook Cholesky factor, one entry at a time in plain Python floats:
+    L_ij = (A_ij − Σ_k<j L_ik L_jk) / L_jj with the sum in k order."""
+    n = len(A)
+    L = [[0.0] * n for _ in range(n)]
+    for j in range(n):
+        d = float(A[j][j])
+        for k in range(j):
+            d -= L[j][k] * L[j][k]
+        L[j][j] = d ** 0.5
+        for i in range(j + 1, n):
+            s = float(A[i][j])
+            for k in range(j):
+                s -= L[i][k] * L[j][k]
+            L[i][j] = s / L[j][j]
+    return np.array(L)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4, 5, 6, 7, 9, 13, 30])
+def test_dense_cholesky_kernel_rounds_as_the_textbook_formula(n):
+    """``cholesky_in_place`` works on four rows at once; each entry is still the
+    textbook sum in k order, so its factor equals the formula's bit for bit (every
+    count of rows left over after the blocks of four occurs)."""
+    from ipcsim.kernels.linalg import cholesky_in_place
+
+    rng = np.random.default_rng(n)
+    B = rng.standard_normal((n, n))
+    A = B @ B.T + n * np.eye(n)
+    L = A.copy()
+    assert cholesky_in_place(L)
+    np.testing.assert_array_equal(np.tril(L), _cholesky_row_by_row(A))
+    np.testing.assert_array_equal(np.triu(L, 1), np.triu(A, 1))  # not read, nor written
+
+
+@pytest.mark.parametrize("row", [1, 4, 8, 10])
+def test_dense_cholesky_kernel_refuses_a_nan_below_the_diagonal(row):
+    from ipcsim.kernels.linalg import cholesky_in_place
+
+    A = block_spd(4, seed=3).toarray()
+    A[row, 0] = np.nan
+    assert not cholesky_in_place(A)
