@@ -490,9 +490,9 @@ AUTO_ORDER = ("cholmod", "scipy")
 # "auto" factors systems of at most this many DOFs dense (DenseSolver)
 DENSE_UP_TO = 60
 # ... and of at most this many where Newton's iterations run compiled (the fused terms of
-# a small scene): the Python they save outweighs the dense factor's n³ up to about 170
-# DOFs (docs/linear-solvers.md)
-DENSE_WITH_COMPILED_NEWTON_UP_TO = 150
+# a small scene): the Python they save outweighs the dense factor's n³ up to about 290
+# DOFs per iteration (docs/linear-solvers.md)
+DENSE_WITH_COMPILED_NEWTON_UP_TO = 240
 # the original's names and other spellings
 ALIASES = {"eigen": "scipy", "amgcl": "scipy", "superlu": "scipy", "mkl": "pardiso"}
 

@@ -219,13 +219,13 @@ def test_kappas_balance_is_summed_in_index_order():
     assert balanced_kappa(gb, gr, 1e9, 2e9) == 1e9 and balanced_kappa(0 * gb, gr, 5.0, 6.0) == 5.0
 
 
-@pytest.mark.parametrize("cells, dense", [((2, 2, 2), True), ((2, 2, 3), True),
-                                          ((3, 3, 3), False)])
-def test_auto_factors_dense_up_to_150_dofs_where_newton_runs_compiled(tmp_path, monkeypatch,
+@pytest.mark.parametrize("cells, dense", [((2, 2, 2), True), ((3, 3, 3), True),
+                                          ((3, 3, 4), True), ((3, 4, 4), False)])
+def test_auto_factors_dense_up_to_240_dofs_where_newton_runs_compiled(tmp_path, monkeypatch,
                                                                       cells, dense):
-    """Boxes of 27, 36 and 64 vertices (81, 108 and 192 DOFs): dense where Newton's
-    iterations run compiled up to DENSE_WITH_COMPILED_NEWTON_UP_TO, above DENSE_UP_TO
-    never otherwise."""
+    """Boxes of 27, 64, 80 and 100 vertices (81, 192, 240 and 300 DOFs): dense where
+    Newton's iterations run compiled up to DENSE_WITH_COMPILED_NEWTON_UP_TO, above
+    DENSE_UP_TO never otherwise."""
     write_box_msh(tmp_path / "box.msh", cells=cells)
     (tmp_path / "scene.txt").write_text(SCENES["no mesh contact"])
     model = build_model(load_scene(tmp_path / "scene.txt"))
