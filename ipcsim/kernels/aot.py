@@ -23,6 +23,7 @@ tuple of its items' keys. Anything else has no compiled match and goes to numba.
 from __future__ import annotations
 
 import hashlib
+import itertools
 import json
 import os
 import platform
@@ -67,18 +68,19 @@ def matcher(entries: dict | None):
 
     It is generated as one chain of tests per key, e.g. for ``(("float64", 2), "int64")``::
 
-        if len(args) == 2 and (type(args[0]) is ndarray and (args[0].dtype is d_float64
-                or args[0].dtype == d_float64) and args[0].ndim == 2
-                and args[0].flags.carray) and type(args[1]) in s_int64:
+        if n == 2 and (type(v0 := args[0]) is ndarray and (v0.dtype is d_float64
+                or v0.dtype == d_float64) and v0.ndim == 2 and v0.flags.carray)
+                and type(args[1]) in s_int64:
             return f0
     """
     if not entries:
         return _no_match
     namespace = {"ndarray": np.ndarray}
+    names = (f"v{i}" for i in itertools.count())  # each value is looked up once
     lines = ["def match(args):", "    n = len(args)"]
     for i, (key, function) in enumerate(entries.items()):
         namespace[f"f{i}"] = function
-        tests = [f"n == {len(key)}"] + [_test(f"args[{j}]", k, namespace)
+        tests = [f"n == {len(key)}"] + [_test(f"args[{j}]", k, namespace, names)
                                         for j, k in enumerate(key)]
         lines += [f"    if {' and '.join(tests)}:", f"        return f{i}"]
     lines.append("    return None")
@@ -100,19 +102,21 @@ def match_on_first_call(kernel):
     return first_match
 
 
-def _test(expr: str, key, namespace: dict) -> str:
-    """The Python expression that holds when ``_key(expr) == key``."""
+def _test(expr: str, key, namespace: dict, names) -> str:
+    """The Python expression that holds when ``_key(expr) == key``; an array or a tuple
+    is bound to the next of ``names`` where it is first read."""
     if key is None:
         return "False"
     if isinstance(key, tuple) and len(key) == 2 and isinstance(key[1], int):  # an array
         dtype, ndim = key
         namespace[f"d_{dtype}"] = np.dtype(dtype)
-        return (f"(type({expr}) is ndarray and ({expr}.dtype is d_{dtype} or "
-                f"{expr}.dtype == d_{dtype}) and {expr}.ndim == {ndim} and "
-                f"{expr}.flags.carray)")
+        a = next(names)
+        return (f"(type({a} := {expr}) is ndarray and ({a}.dtype is d_{dtype} or "
+                f"{a}.dtype == d_{dtype}) and {a}.ndim == {ndim} and {a}.flags.carray)")
     if isinstance(key, tuple):
-        items = [_test(f"{expr}[{j}]", k, namespace) for j, k in enumerate(key)]
-        return f"(type({expr}) is tuple and len({expr}) == {len(key)} and " \
+        t = next(names)
+        items = [_test(f"{t}[{j}]", k, namespace, names) for j, k in enumerate(key)]
+        return f"(type({t} := {expr}) is tuple and len({t}) == {len(key)} and " \
                f"{' and '.join(items) or 'True'})"
     namespace[f"s_{key}"] = frozenset(t for t, name in _SCALARS.items() if name == key)
     return f"type({expr}) in s_{key}"
