@@ -101,9 +101,12 @@ class Simulation:
         self.contact = ContactSetup.from_model(model)
         self.timer = PhaseTimer()
         # a dense Newton matrix takes the terms evaluated and added into it together
-        # (warm start 5 reads their triplets, the baselines their sparse Hessian)
-        fused = (self.potential.fusing() if model.constraint_solver is None
-                 and model.solver.warm_start != 5 and fused_kernels_available() else None)
+        # (warm start 5 reads their triplets, the baselines their sparse Hessian); a scene
+        # too large for "auto" to factor dense is not fused at all
+        fused = (self.potential.fusing()
+                 if 3 * model.n_vertices <= DENSE_WITH_COMPILED_NEWTON_UP_TO
+                 and model.constraint_solver is None and model.solver.warm_start != 5
+                 and fused_kernels_available() else None)
         compiled = fused is not None and fused.fused is not None and newton_available()
         # free DOFs never exceed 3n: a small scene's "auto" solver factors dense, up to a
         # larger size where Newton's iterations then run compiled
