@@ -187,9 +187,13 @@ def test_the_fused_hessian_is_added_as_one_dense_part(tmp_path):
     assert len(static) == 1 and dynamic == [] and not isinstance(static[0], Triplets)
 
 
-def test_a_steps_final_energy_comes_from_its_line_search(tmp_path, monkeypatch):
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled iterations", "python loop"])
+def test_a_steps_final_energy_comes_from_its_line_search(tmp_path, monkeypatch, compiled):
     """The terms' values at the point a step ends are the line search's: Newton's final
-    evaluation does not compute them again (nor, so, do the logs' energies differ)."""
+    evaluation does not compute them again (nor, so, do the logs' energies differ). Both
+    where the iterations run compiled (16 vertices) and where Python runs them with the
+    fused line search (as during a pull)."""
+    monkeypatch.setattr("ipcsim.potentials.objective.newton_available", lambda: compiled)
     sim = simulation(tmp_path, VARIANTS["backward Euler, friction"])
     calls = []
     values = FusedTerms.values
