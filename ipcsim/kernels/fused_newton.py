@@ -12,7 +12,8 @@ Arguments, besides x (n, 3), the first iteration's number and the cap:
     present, kinds, weights, barrier   the fused potential (``fused_line_search.line_search``)
     terms, mesh, bounds                as there; the mesh contact's pairs are set here
     dofs          (prescribed DOFs (3n,), free DOFs (3n,), free number of each DOF, n free)
-    prescribed    (kinematic (n,), targets (n, 3), motion remaining at the solve's start)
+    prescribed    (kinematic (n,), targets (n, 3), motion remaining at the solve's start,
+                  whether a pull of prescribed vertices is under way)
     collisions    the collision set at x (pt, ee, ε_x, pt ids, ee ids, pt types, pt d²,
                   ee types, ee d²); the sets after a line search are narrowed from it
     planes        (vertices, origins, normals) of the contact planes, and whether there are
@@ -26,7 +27,8 @@ Arguments, besides x (n, 3), the first iteration's number and the cap:
 
 It stops, and says why (``status``), where Python takes over: converged, the line
 search gave up, the iteration cap, after the first iteration when the prescribed
-vertices may need a pull (``StepObjective.follow_up`` decides), or at the start of an
+vertices may need a pull and after every iteration while one is under way
+(``StepObjective.follow_up`` starts, tightens or ends it), or at the start of an
 iteration that would raise (a non-finite value, a matrix Cholesky refuses): Python does
 that iteration again and names the culprit.
 """
@@ -280,7 +282,7 @@ def _record(rows, contacts, done, values):
 def newton_iterations(x, first, cap, present, kinds, weights, barrier, terms, mesh, bounds,
                       dofs, prescribed, collisions, planes, stiffness, ramp, state, settings,
                       pullable):
-    kinematic, target = prescribed[0], prescribed[1]
+    kinematic, target, pulling = prescribed[0], prescribed[1], prescribed[3]
     pairs = collisions  # the collision set at x
     kappa, balanced, last_d2 = stiffness[0], stiffness[5], stiffness[6]
     energy, ccd_alpha, min_alpha, complete = state[0], state[1], state[2], state[3]
@@ -313,8 +315,10 @@ def newton_iterations(x, first, cap, present, kinds, weights, barrier, terms, me
             status = HAND_BACK  # Python raises the solver's error
             break
         p3 = p.reshape(x.shape)
-        converged, step_norm, g_norm = _stops(x, p3, g, dofs[1], tol, remaining == 0.0,
-                                              present, terms[FRICTION], ramp)
+        # a step converges only with its prescribed motion done and no pull under way
+        converged, step_norm, g_norm = _stops(x, p3, g, dofs[1], tol,
+                                              remaining == 0.0 and not pulling, present,
+                                              terms[FRICTION], ramp)
         alpha, failed, x_new, new_swept = 0.0, False, x, swept
         searched = not (converged and step_norm == 0.0)  # else: nothing left to do
         if searched:
@@ -350,8 +354,8 @@ def newton_iterations(x, first, cap, present, kinds, weights, barrier, terms, me
         if converged:
             status = CONVERGED
             break
-        if it == 1 and pullable[0] and _may_pull(x, kinematic, target, pullable):
-            status = FOLLOW_UP  # ``StepObjective.follow_up`` decides on a pull
+        if pulling or (it == 1 and pullable[0] and _may_pull(x, kinematic, target, pullable)):
+            status = FOLLOW_UP  # ``StepObjective.follow_up`` starts, tightens or ends a pull
             break
     return (status, it, x, p, (kappa, balanced, last_d2), (energy, ccd_alpha, min_alpha,
             complete), rows[:done], contacts[:done], x_evaluated, pairs, swept, values,

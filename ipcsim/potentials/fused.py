@@ -307,7 +307,7 @@ def newton_iterations(fused: FusedTerms, x, span: tuple[int, int], ctx: StepCont
     mesh, planes, pairs = contact
     dofs, prescribed, stiffness, ramp, state, settings, pullable = newton
     prescribed_dofs, free, free_index, n_free = dofs
-    kinematic, target, motion = prescribed
+    kinematic, target, motion, pulling = prescribed
     int_pairs = {0, 1, 3, 4, 5, 7}  # pt, ee, their ids and types
     out = kn.newton_iterations(
         _writeable(x), int(span[0]), int(span[1]), fused.present, *fused.weighing,
@@ -315,7 +315,7 @@ def newton_iterations(fused: FusedTerms, x, span: tuple[int, int], ctx: StepCont
         fused.bounds,
         (_writeable(prescribed_dofs, np.bool_), _writeable(free, np.bool_),
          _writeable(free_index, np.int64), int(n_free)),
-        (_writeable(kinematic, np.bool_), _writeable(target), float(motion)),
+        (_writeable(kinematic, np.bool_), _writeable(target), float(motion), bool(pulling)),
         tuple(_writeable(a, np.int64 if i in int_pairs else float) for i, a in enumerate(pairs)),
         _NO_PLANES if planes is None else (planes.vertices, planes.origins, planes.normals,
                                            True),

@@ -253,9 +253,9 @@ class StepObjective:
     @property
     def compiles_newton(self) -> bool:
         """Whether Newton may run its iterations as one compiled call here
-        (``newton_iterations``): a fused potential and no pull under way."""
-        return (self.potential.fused is not None and self.pull is None
-                and newton_available())
+        (``newton_iterations``): a fused potential (a pull under way is one more fused
+        term; the call then ends after each iteration, for ``follow_up``)."""
+        return self.potential.fused is not None and newton_available()
 
     @cached_property
     def _pull_may_take(self) -> tuple:
@@ -297,7 +297,7 @@ class StepObjective:
             self.potential.fused, x, (first, cap), self.ctx,
             (self.contact.mesh, self.contact.planes, pairs),
             ((dofs.prescribed, dofs.free, dofs.index, dofs.n_free),
-             (self.kinematic, self.target, float(motion)),
+             (self.kinematic, self.target, float(motion), self.pull is not None),
              (float(st.kappa), float(st.kappa_min), float(st.kappa_max), float(st.eps_sq),
               bool(adaptive), bool(st.balanced), float(st.min_distance_sq)),
              ramp, (np.nan if energy is None else float(energy), float(self.last_ccd_alpha),

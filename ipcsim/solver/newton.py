@@ -257,11 +257,14 @@ class NewtonSolver:
                 run.iterations = cap
                 return x, first, energy, potential, self._finish(
                     objective, x, run, converged=False, hit_cap=True)
-            if status == FOLLOW_UP:
-                objective.follow_up(x, out.p, first=True)
+            if status == FOLLOW_UP:  # after the step's first iteration, or during a pull
+                revision = objective.revision
+                objective.follow_up(x, out.p, first=first == 1)
+                if objective.revision != revision:
+                    energy = None  # a pull began, changed or ended: another potential
                 if objective.compiles_newton:
                     continue
-            return x, first, energy, potential, None  # HAND_BACK, or a pull began
+            return x, first, energy, potential, None  # HAND_BACK
 
     def _add_rows(self, run: _Progress, rows: np.ndarray, ended_at: tuple) -> None:
         """The compiled iterations' rows as ``solve`` writes them; each row but the last

@@ -83,9 +83,11 @@ def statuses(monkeypatch):
     seen = []
     call = fused_module.newton_iterations
 
-    def spy(*args, **kwargs):
-        out = call(*args, **kwargs)
+    def spy(fused, x, span, ctx, contact, newton):
+        out = call(fused, x, span, ctx, contact, newton)
         seen.append(out.status)
+        if newton[1][3]:  # a pull was under way: its iterations ran compiled
+            seen.append("pulling")
         return out
 
     monkeypatch.setattr("ipcsim.potentials.objective.fused_newton_iterations", spy)
@@ -138,8 +140,10 @@ def test_compiled_iterations_are_the_python_loops(tmp_path, monkeypatch, statuse
                         lambda self, x: (pulls.append(self), start_pull(self, x))[1])
     step_both(compiled, plain, monkeypatch)
     if scene == "bottom face driven into the ground":
-        # after each first iteration Python decides on a pull; one took over
+        # after each first iteration Python decides on a pull; one took over, and its
+        # iterations ran compiled too, one call each (Python tightens or ends the pull)
         assert kn.FOLLOW_UP in statuses and any(p.revision for p in pulls)
+        assert statuses.count("pulling") >= 10, statuses.count("pulling")
     elif scene == "every vertex prescribed, at rest":  # nothing to do: no line search
         assert all(r["alpha"] == 0.0 for r in plain.step().newton)
     else:
