@@ -23,10 +23,11 @@ and the objective's own test of p (``resolved``: friction's static ramp); the
 converged direction is still taken (it costs no solve), so a step always moves by at least
 one Newton direction and a slow body does not stall below the tolerance.
 
-On a small scene (a dense system, the terms fused, no pull under way) the iterations run
-as one compiled call (``kernels/fused_newton.py``): the loop of ``solve`` step by step,
-bit for bit. The loop here is the reference it mirrors, and takes over wherever the
-compiled iterations hand back (a pull to decide on, an iteration that would raise).
+On a small scene (a dense system, the terms fused) the iterations run as one compiled
+call (``kernels/fused_newton.py``): the loop of ``solve`` step by step, bit for bit. A
+pull of prescribed vertices is decided, tightened and ended by Python between such
+calls, one iteration each while it lasts. The loop here is the reference the kernel
+mirrors, and takes over where an iteration would raise (Python names the culprit).
 """
 
 from __future__ import annotations
