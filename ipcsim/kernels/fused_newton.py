@@ -315,10 +315,9 @@ def newton_iterations(x, first, cap, present, kinds, weights, barrier, terms, me
             status = HAND_BACK  # Python raises the solver's error
             break
         p3 = p.reshape(x.shape)
-        # a step converges only with its prescribed motion done and no pull under way
-        converged, step_norm, g_norm = _stops(x, p3, g, dofs[1], tol,
-                                              remaining == 0.0 and not pulling, present,
-                                              terms[FRICTION], ramp)
+        # a step converges with its prescribed motion done and no pull under way
+        converged, step_norm, g_norm = _stops(x, p3, g, dofs[1], tol, remaining == 0.0
+                                              and not pulling, present, terms[FRICTION], ramp)
         alpha, failed, x_new, new_swept = 0.0, False, x, swept
         searched = not (converged and step_norm == 0.0)  # else: nothing left to do
         if searched:
