@@ -20,8 +20,10 @@ The phases, nested as they run:
       build                        scene, model and simulation (``runner._build``)
       output                       the folder, logs, frame 0, checkpoint 0 (``_open_output``)
       step loop                    ``runner._step_loop``:
-        steps                        ``Simulation.step`` (of which: the compiled Newton
-                                     iterations, where they run)
+        steps                        ``Simulation.step``: the step's objective
+                                     (``Simulation.objective``), the compiled Newton
+                                     iterations where they run, Newton's final
+                                     evaluation (``NewtonSolver._finish``)
         frames, logs, checkpoints    ``_write_frame``, ``CsvLog.append_rows``, ``_checkpoint``
       run.json                     ``runner._run_info``
 
@@ -55,7 +57,9 @@ CLOCKED = (
     ("output", "ipcsim.runner", "_open_output"),
     ("step loop", "ipcsim.runner", "_step_loop"),
     ("steps", "ipcsim.simulation", "Simulation.step"),
+    ("the step's objective", "ipcsim.simulation", "Simulation.objective"),
     ("compiled Newton iterations", "ipcsim.kernels.fused_newton", "newton_iterations"),
+    ("final evaluation", "ipcsim.solver.newton", "NewtonSolver._finish"),
     ("frames", "ipcsim.runner", "_write_frame"),
     ("logs", "ipcsim.io.csv_log", "CsvLog.append_rows"),
     ("checkpoints", "ipcsim.runner", "_checkpoint"),
@@ -194,10 +198,10 @@ def rows(medians: dict[str, float]) -> list[tuple[str, int, float]]:
         children = _children(medians, path)
         for child in children:
             walk(child, depth + 1)
-        if children:  # under the steps: the compiled iterations, and Python around them
+        if children:
             rest = medians[path] - sum(medians[c] for c in children)
-            out.append(("Python around them" if path.endswith("/steps") else "rest",
-                        depth + 1, rest))
+            out.append(("rest (Python)" if path.endswith("/steps") else "rest", depth + 1,
+                        rest))
 
     walk("main", 1)
     return out
