@@ -253,6 +253,24 @@ def _search(x, p3, present, kinds, weights, barrier, kappa, at_x, mesh, bounds, 
 
 
 @kernel()
+def _where_it_ends(x, x_evaluated, pairs, swept, planes, has_mesh, dhat):
+    """(the collision set at x, the contacts there), as ``StepObjective.collisions`` and
+    ``ContactSetup.count`` find them for Newton's final evaluation (or the row before the
+    next call): the set of the x last evaluated where x is that point, else the one
+    narrowed from the pairs swept to x."""
+    moved = False
+    for i in range(x.shape[0]):
+        for a in range(3):
+            moved = moved or not x[i, a] == x_evaluated[i, a]  # as np.array_equal: NaN moved
+    if has_mesh and moved:
+        pairs = near_pairs(x, swept[0], swept[1], swept[2], swept[3], swept[4], dhat)
+    pt_d2, ee_d2 = pairs[6], pairs[8]
+    min_d2 = min(pt_d2.min() if pt_d2.shape[0] else np.inf,
+                 ee_d2.min() if ee_d2.shape[0] else np.inf)  # ``Collisions._min_d2``
+    return pairs, _count(x, planes, has_mesh, pt_d2, ee_d2, min_d2, dhat * dhat)
+
+
+@kernel()
 def _end_row_at(contacts, row, counts):
     """Row ``row`` ended at an iterate with these contacts (and their total)."""
     contacts[row, 0] = counts[0]
@@ -348,14 +366,14 @@ def newton_iterations(x, first, cap, present, kinds, weights, barrier, terms, me
             status = LINE_SEARCH_FAILED
             break
         x, swept = x_new, new_swept
-        if searched:
-            min_alpha = min(min_alpha, alpha)
+        min_alpha = min(min_alpha, alpha) if searched else min_alpha
         if converged:
             status = CONVERGED
             break
         if pulling or (it == 1 and pullable[0] and _may_pull(x, kinematic, target, pullable)):
             status = FOLLOW_UP  # ``StepObjective.follow_up`` starts, tightens or ends a pull
             break
+    pairs, counts = _where_it_ends(x, x_evaluated, pairs, swept, planes, has_mesh, dhat)
     return (status, it, x, p, (kappa, balanced, last_d2), (energy, ccd_alpha, min_alpha,
-            complete), rows[:done], contacts[:done], x_evaluated, pairs, swept, values,
+            complete), rows[:done], contacts[:done], pairs, counts, swept, values,
             values_kappa)

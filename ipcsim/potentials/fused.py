@@ -279,7 +279,7 @@ class NewtonIterations:
     the next iteration's number, x and the last direction p (3n,), κ's state, E(x) (NaN:
     not known at this κ), CCD's α, the smallest α, whether the prescribed motion was
     complete, the rows (k, 8) and the contacts each row ended at (k, 5; NaN where not
-    known yet), the x last evaluated with its collision set, the pairs swept to x and the
+    known yet), the collision set and the contacts at x, the pairs swept to x and the
     terms' values by kind from the last line search with its κ (NaN: none)."""
 
     status: int
@@ -290,8 +290,8 @@ class NewtonIterations:
     state: tuple
     rows: np.ndarray
     ended_at: tuple
-    x_evaluated: np.ndarray
     collisions: tuple
+    contacts: ContactCount
     swept: tuple
     values: np.ndarray
     values_kappa: float
@@ -326,7 +326,9 @@ def newton_iterations(fused: FusedTerms, x, span: tuple[int, int], ctx: StepCont
     ended_at = tuple(None if np.isnan(c[4]) else ContactCount(int(c[0]), int(c[1]), int(c[2]),
                                                               float(c[3]))
                      for c in contacts.tolist())
-    return NewtonIterations(int(out[0]), int(out[1]), *out[2:7], ended_at, *out[8:])
+    plane, pt, ee, dmin = out[9]
+    return NewtonIterations(int(out[0]), int(out[1]), *out[2:7], ended_at, out[8],
+                            ContactCount(int(plane), int(pt), int(ee), float(dmin)), *out[10:])
 
 
 _NO_PLANES = (np.zeros(0, dtype=np.int64), _NO_POINTS, _NO_POINTS, False)

@@ -155,6 +155,8 @@ class StepObjective:
         self._on_segment: tuple[np.ndarray, Collisions | None] | None = None
         # (y, κ, revision, the terms' values at y) from the last fused line search
         self._values_at: tuple | None = None
+        # (x, the contacts at x) where the compiled iterations ended
+        self._contacts_at: tuple[np.ndarray, ContactCount] | None = None
 
     # -- what Newton reads -----------------------------------------------------------------
     @property
@@ -175,7 +177,7 @@ class StepObjective:
         order 2 κ adapts first (unless ``adapt`` is False, as for a warm start)."""
         with self.timer("contact_set"):
             collisions = self.collisions(x)
-            contacts = self.contact.count(x, collisions)
+            contacts = self._count(x, collisions)
         self.ctx = replaced(self.ctx, collisions=collisions)
         with self.timer("energy"):
             values = self.potential.evaluate(x, self.ctx, order)
@@ -248,7 +250,15 @@ class StepObjective:
     def contacts(self, x: np.ndarray) -> ContactCount:
         """The contacts at x (``evaluate``'s count)."""
         with self.timer("contact_set"):
-            return self.contact.count(x, self.collisions(x))
+            return self._count(x, self.collisions(x))
+
+    def _count(self, x: np.ndarray, collisions: Collisions | None) -> ContactCount:
+        """The contacts at x with its collision set: those the compiled iterations
+        counted where they ended, else counted here."""
+        known = self._contacts_at
+        if known is not None and known[0] is x:
+            return known[1]
+        return self.contact.count(x, collisions)
 
     @property
     def compiles_newton(self) -> bool:
@@ -271,12 +281,12 @@ class StepObjective:
     def newton_iterations(self, x: np.ndarray, first: int, cap: int, dofs, motion: float,
                           energy, progress: tuple, settings: tuple) -> NewtonIterations:
         """Newton's iterations from x, numbered from ``first``, in one compiled call
-        (``fused.newton_iterations``), adopting what they leave as ``evaluate``,
-        ``line_search`` and ``took`` would: κ, CCD's α, the collision set of the last x
-        evaluated, the pairs swept to x and the terms' values there. ``dofs`` (prescribed,
-        free, free numbers, count), ``motion`` the prescribed motion at the solve's
-        start, ``energy`` E(x) at the κ in force or None, ``progress`` (smallest α so
-        far, prescribed motion complete), ``settings`` (tol, halvings, kinematic
+        (``fused.newton_iterations``), adopting what they leave as ``evaluate`` and
+        ``line_search`` would: κ, CCD's α, the collision set and the contacts at the x
+        they end at, and the terms' values there. ``dofs`` (prescribed, free, free
+        numbers, count), ``motion`` the prescribed motion at the solve's start,
+        ``energy`` E(x) at the κ in force or None, ``progress`` (smallest α so far,
+        prescribed motion complete), ``settings`` (tol, halvings, kinematic
         completion)."""
         with self.timer("contact_set"):
             collisions = self.collisions(x)
@@ -311,10 +321,10 @@ class StepObjective:
         if self.contact.mesh is not None:
             self.last_ccd_alpha = float(out.state[1])
             pt, ee, eps_x, pt_id, ee_id, *distances = out.collisions
-            evaluated = Collisions(pt, ee, eps_x, PairDistances(*distances), pt_id, ee_id)
-            self._collisions_at = (out.x_evaluated.copy(), evaluated)
-            self.ctx = replaced(self.ctx, collisions=evaluated)
-            self.took(out.x, Collisions(*out.swept[:3], None, *out.swept[3:]))
+            at_x = Collisions(pt, ee, eps_x, PairDistances(*distances), pt_id, ee_id)
+            self._collisions_at = (out.x.copy(), at_x)
+            self.ctx = replaced(self.ctx, collisions=at_x)
+        self._contacts_at = (out.x, out.contacts)
         fused = self.potential.fused
         if not np.isnan(out.values[fused.kinds[0]]):
             self._values_at = (out.x, float(out.values_kappa), self.revision,

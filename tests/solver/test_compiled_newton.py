@@ -150,6 +150,30 @@ def test_compiled_iterations_are_the_python_loops(tmp_path, monkeypatch, statuse
         assert statuses.count(kn.CONVERGED) >= 8  # the compiled iterations ended most steps
 
 
+@pytest.mark.parametrize("scene", ["backward Euler, friction",
+                                   "bottom face driven into the ground"])
+def test_a_steps_end_is_counted_by_the_compiled_iterations(tmp_path, monkeypatch,
+                                                           statuses, scene):
+    """Where the compiled iterations end (a step's end, or a pull's next call), their
+    collision set and contact count there are the ones Python's final evaluation and
+    rows take: Python neither narrows the swept pairs nor counts contacts again."""
+    import ipcsim.potentials.objective as objective_module
+    from ipcsim.contact.setup import ContactSetup
+
+    sim = simulation(tmp_path, SCENES[scene], True, monkeypatch)
+    monkeypatch.setattr("ipcsim.potentials.objective.newton_available", lambda: True)
+    calls = []
+    count, narrowed = ContactSetup.count, objective_module.narrowed_collisions
+    monkeypatch.setattr(ContactSetup, "count",
+                        lambda self, *a: (calls.append("count"), count(self, *a))[1])
+    monkeypatch.setattr(objective_module, "narrowed_collisions",
+                        lambda *a: (calls.append("narrowed"), narrowed(*a))[1])
+    rows = [sim.step().row for _ in range(12)]
+    assert calls == [] and sum(r["contacts_total"] for r in rows) > 0  # in contact
+    ended = (kn.FOLLOW_UP if scene.startswith("bottom") else kn.CONVERGED)
+    assert statuses.count(ended) >= 8, sorted(set(map(str, statuses)))
+
+
 def test_kappas_doubling_is_the_python_loops(tmp_path, monkeypatch, statuses):
     """κ doubles while the closest contact keeps closing in below dTol: here dTol is d̂
     itself, so that it does in a short run."""
