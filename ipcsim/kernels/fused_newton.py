@@ -63,6 +63,13 @@ def _with_pairs(terms, pt, ee, eps_x, active):
 
 
 @kernel()
+def _smallest_d2(pt_d2, ee_d2):
+    """The pairs' smallest squared distance, inf without pairs (``Collisions._min_d2``)."""
+    return min(pt_d2.min() if pt_d2.shape[0] else np.inf,
+               ee_d2.min() if ee_d2.shape[0] else np.inf)
+
+
+@kernel()
 def _count(x, planes, has_mesh, pt_d2, ee_d2, min_d2, s_hat):
     """``ContactSetup.count``: (plane, point–triangle, edge–edge, smallest distance);
     ``min_d2`` the pairs' smallest squared distance."""
@@ -226,8 +233,7 @@ def _evaluate(x, pairs, planes, has_mesh, dhat, present, terms):
     with the pairs at x; each term's gradient) (``StepObjective.evaluate``)."""
     pt, ee, eps_x, pt_d2, ee_d2 = pairs[0], pairs[1], pairs[2], pairs[6], pairs[8]
     s_hat = dhat * dhat
-    min_d2 = min(pt_d2.min() if pt_d2.shape[0] else np.inf,
-                 ee_d2.min() if ee_d2.shape[0] else np.inf)  # ``Collisions._min_d2``
+    min_d2 = _smallest_d2(pt_d2, ee_d2)
     counts = _count(x, planes, has_mesh, pt_d2, ee_d2, min_d2, s_hat)
     active = has_mesh and min_d2 < s_hat  # ``Collisions.may_be_active``
     at_x = _with_pairs(terms, pt, ee, eps_x, active)
@@ -265,9 +271,8 @@ def _where_it_ends(x, x_evaluated, pairs, swept, planes, has_mesh, dhat):
     if has_mesh and moved:
         pairs = near_pairs(x, swept[0], swept[1], swept[2], swept[3], swept[4], dhat)
     pt_d2, ee_d2 = pairs[6], pairs[8]
-    min_d2 = min(pt_d2.min() if pt_d2.shape[0] else np.inf,
-                 ee_d2.min() if ee_d2.shape[0] else np.inf)  # ``Collisions._min_d2``
-    return pairs, _count(x, planes, has_mesh, pt_d2, ee_d2, min_d2, dhat * dhat)
+    return pairs, _count(x, planes, has_mesh, pt_d2, ee_d2, _smallest_d2(pt_d2, ee_d2),
+                         dhat * dhat)
 
 
 @kernel()
