@@ -3,6 +3,8 @@ from __future__ import annotations
 import datetime as dt
 import json
 import math
+import platform
+import subprocess
 import sys
 from pathlib import Path
 
@@ -45,6 +47,21 @@ def test_run_json_has_environment_and_caller_facts(tmp_path):
     assert info["modelled_terms"] == ["inertia", "gravity", "elasticity", "barrier"]
     assert info["linear_solver"] == "cholmod"
     assert info["custom"] == {"dhat": 1e-3, "bad": None}  # strict JSON has no NaN
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux") or platform.libc_ver()[0] != "glibc",
+                    reason="platform.platform() names other systems in its own way")
+def test_platform_is_platform_platforms_string():
+    assert environment_info()["platform"] == platform.platform()
+
+
+def test_environment_info_starts_no_process():
+    # platform.platform() runs `uname -p` in a subprocess: ten milliseconds of every run
+    code = ("import sys; from ipcsim.io.run_info import environment_info; "
+            "environment_info(); print('subprocess' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True)
+    assert out.stdout.strip() == "False"
 
 
 def test_unset_run_keys_are_null_and_caller_wins(tmp_path):
