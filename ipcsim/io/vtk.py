@@ -191,6 +191,7 @@ class FrameWriter:
         self.folder = Path(folder)
         self.frames_dir = self.folder / FRAMES_DIR
         self.series_path = self.frames_dir / SERIES_NAME
+        self._frames_dir_name = os.fspath(self.frames_dir)
         if compression_level is not None and not 0 <= compression_level <= 9:
             raise ValueError(f"compression_level must be 0..9 or None, got {compression_level!r}")
         self._level = compression_level
@@ -223,7 +224,7 @@ class FrameWriter:
         self._body_xml = _data_array("body_id", self._body_id, compression_level)
         # index -> (time, file name, the frame's line of the series, formatted once)
         self._series: dict[int, tuple[float, str, str]] = {}
-        self._unsynced: set[Path] = set()  # written without fsync since the last sync()
+        self._unsynced: set[str] = set()  # written without fsync since the last sync()
         # The series is rewritten whole with every frame unless this many wall seconds
         # have not passed since it last was (a run sets it: 201 rewrites of a growing
         # file were a tenth of a tiny scene's run); flush() and sync() catch it up.
@@ -287,7 +288,7 @@ class FrameWriter:
             "</Piece>\n</UnstructuredGrid>\n</VTKFile>\n",
         ]
         name = frame_file_name(index)
-        path = self.frames_dir / name
+        path = os.path.join(self._frames_dir_name, name)  # a string: Path parsing costs
         atomic_write_bytes(path, "".join(parts).encode("ascii"), fsync=self.fsync)
         self._unsynced.add(path)
         self._add_to_series(index, time, name)
@@ -295,7 +296,7 @@ class FrameWriter:
             self._write_series()
         else:
             self._series_behind = True
-        return path
+        return Path(path)
 
     def flush(self) -> None:
         """Bring the series up to date with every frame written."""
@@ -338,7 +339,7 @@ class FrameWriter:
             "  </Collection>\n</VTKFile>\n",
         ]
         atomic_write_text(self.series_path, "".join(lines), fsync=self.fsync)
-        self._unsynced.add(self.series_path)
+        self._unsynced.add(os.fspath(self.series_path))
         self._series_written = _time.monotonic()
         self._series_behind = False
 
