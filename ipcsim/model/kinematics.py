@@ -47,6 +47,17 @@ def active_dirichlet_sets(model: Model, t: float, x: np.ndarray | None = None):
     return [s for s in model.dbc_sets if s.active(t, model.dbc_time_range, x)]
 
 
+@lru_cache(maxsize=64)
+def _step_rotation(angular_velocity: tuple, h: float) -> np.ndarray | None:
+    """A set's rotation over one step, R = Rx(wx h) Ry(wy h) Rz(wz h), or None for none;
+    the same every step of a run, so made once (read-only)."""
+    if not any(angular_velocity):
+        return None
+    rot = rotation_xyz(np.asarray(angular_velocity, dtype=np.float64) * h)
+    rot.flags.writeable = False
+    return rot
+
+
 @lru_cache(maxsize=8)
 def _frame(path: str, ext: str, line: int | None) -> np.ndarray:
     pos = read_frame_positions(path, ext, line)
@@ -76,9 +87,12 @@ def kinematic_targets(model: Model, x: np.ndarray, t_step_start: float, h: float
             c = 0.5 * (xs.min(axis=0) + xs.max(axis=0))  # midpoint of the current AABB
         else:
             c = np.asarray(s.centre, dtype=np.float64)
-        rot = rotation_xyz(np.asarray(s.angular_velocity) * h)
         # x' = R (x - c) + c + v h, rows as points: (x - c) R^T
-        targets[s.vertices] = (xs - c) @ rot.T + c + np.asarray(s.linear_velocity) * h
+        arm = xs - c
+        rot = _step_rotation(tuple(s.angular_velocity), h)
+        if rot is not None:
+            arm = arm @ rot.T
+        targets[s.vertices] = arm + c + np.asarray(s.linear_velocity) * h
     if model.mesh_sequences:
         k = int(round(t_step_start / h)) if step is None else int(step)
         for seq in model.mesh_sequences:
