@@ -13,7 +13,8 @@ The objective owns the step's refreshes, so that Newton knows nothing of contact
 * ``follow_up(x, p, first)`` after each Newton iteration: where the step's first
   iteration left the prescribed motion of bodies unfinished, their prescribed vertices
   are pulled towards their targets from then on (``boundary_pull.py``), as free DOFs;
-  the pull tightens until they are there (``prescribed_complete``).
+  the pull tightens until they are there (``prescribed_complete``), or, in its tail,
+  places them there; it returns the x Newton goes on from.
 
 Its state is explicit: the step's ``StepContext`` (replaced, never written to), the
 ``BarrierStiffness``, the pull, the α of the last CCD sweep
@@ -346,14 +347,19 @@ class StepObjective:
         return self.potential.nonfinite_terms(x, ctx, p)
 
     # -- refreshes ---------------------------------------------------------------------------
-    def follow_up(self, x: np.ndarray, p: np.ndarray, first: bool) -> None:
+    def follow_up(self, x: np.ndarray, p: np.ndarray, first: bool) -> np.ndarray:
         """Newton moved to x along p: after the step's first iteration, pull the bodies'
         prescribed vertices that have not reached their targets; during a pull, tighten
-        it or, once they are there, end it and keep them where they are."""
+        it or, once they are there, end it and keep them where they are. Returns the x
+        Newton goes on from: x, or x with the pulled vertices placed on their targets."""
         if self.pull is None:
             if first and self.pullable is not None:
                 self._start_pull(x)
-            return
+            return x
+        if self._schedule.in_tail(self.pull, x, p):
+            placed = self._place_pulled(x)
+            if placed is not None:
+                return placed
         pull, changed = self._schedule.next(self.pull, x, p)
         if pull is None:  # done: they stay at x for the rest of the step
             target = self.ctx.target.copy()
@@ -361,6 +367,24 @@ class StepObjective:
             self.ctx = replaced(self.ctx, target=target)
         if changed:
             self._set_pull(pull)
+        return x
+
+    def _place_pulled(self, x: np.ndarray) -> np.ndarray | None:
+        """x with the pulled vertices moved alone onto their targets, the pull ended (they
+        are prescribed again, their motion done), where that move is free of contact and
+        inversion in full (``max_step``); None where it is not."""
+        vertices, target = self.pull.vertices, self.pull.target
+        move = np.zeros_like(x)
+        move[vertices] = target - x[vertices]
+        hint = self.last_ccd_alpha  # a probe: the line searches keep their own CCD hint
+        free = self.max_step(x, move).max_alpha >= 1.0
+        self.last_ccd_alpha = hint
+        if not free:
+            return None
+        placed = x.copy()
+        placed[vertices] = target
+        self._set_pull(None)
+        return placed
 
     def _start_pull(self, x: np.ndarray) -> None:
         mass, bodies = self.pullable

@@ -3,10 +3,11 @@
 One call minimises an objective: anything with ``kinematic`` (n,) and ``target`` (n, 3),
 ``evaluate(x, order) -> Evaluation`` (E, ∇E, PSD Hessian triplets), ``max_step(x, p) ->
 LineSearch`` (the feasible α and the energy along p), ``resolved(x, p) -> bool``, and
-``follow_up(x, p, first)``, ``prescribed_complete()`` and ``revision`` for the pull of
-prescribed vertices that the first iteration could not take to their targets
+``follow_up(x, p, first) -> x``, ``prescribed_complete()`` and ``revision`` for the pull
+of prescribed vertices that the first iteration could not take to their targets
 (``potentials/boundary_pull.py``: they become free DOFs, pulled by a stiff spring, and
-the step converges only once they are there; ``revision`` changes with the potential).
+the step converges only once they are there; ``follow_up`` may place them there and
+returns the x Newton goes on from; ``revision`` changes with the potential).
 Kinematic DOFs are eliminated: their part of the search direction is the remaining
 prescribed motion p_k = target − x_k, and the free part solves
 
@@ -215,7 +216,7 @@ class NewtonSolver:
             if converged:
                 run.iterations = it + 1
                 return self._finish(objective, x, run, converged=True)
-            objective.follow_up(x, p, first=it == 0)  # may pull prescribed vertices
+            x = objective.follow_up(x, p, first=it == 0)  # may pull prescribed vertices
         run.iterations = self.settings.max_newton_iterations
         return self._finish(objective, x, run, converged=False, hit_cap=True)
 
@@ -260,7 +261,7 @@ class NewtonSolver:
                     objective, x, run, converged=False, hit_cap=True)
             if status == FOLLOW_UP:  # after the step's first iteration, or during a pull
                 revision = objective.revision
-                objective.follow_up(x, out.p, first=first == 1)
+                x = objective.follow_up(x, out.p, first=first == 1)
                 if objective.revision != revision:
                     energy = None  # a pull began, changed or ended: another potential
                 if objective.compiles_newton:

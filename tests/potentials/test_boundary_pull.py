@@ -14,6 +14,7 @@ from ipcsim.contact.intersection import find_intersections
 from ipcsim.kernels.linalg import tet_signed_volumes
 from ipcsim.model.builder import build_model
 from ipcsim.potentials.boundary_pull import MAX_RHO, START_RHO, BoundaryPull, PullSchedule
+from ipcsim.records import replaced
 from ipcsim.scene import load_scene
 from ipcsim.simulation import Simulation
 
@@ -97,6 +98,23 @@ def test_the_schedule_stiffens_until_the_vertices_are_close_then_updates_multipl
     assert nxt.rho == MAX_RHO
 
 
+def test_the_schedules_tail_is_a_small_step_from_99_percent_until_done():
+    rng = np.random.default_rng(4)
+    pull, x = _pull(rng, lam=False)
+    schedule = PullSchedule(started_at=0.5, small_step=1e-3)
+    big, small = np.full(6, 1.0), np.full(6, 1e-4)
+
+    def at(completion):
+        y = x.copy()
+        y[pull.vertices] = completion * pull.target + (1 - completion) * pull.start
+        return y
+
+    assert schedule.in_tail(pull, at(0.995), small)
+    assert not schedule.in_tail(pull, at(0.995), big)  # still moving
+    assert not schedule.in_tail(pull, at(0.98), small)  # stiffen first
+    assert not schedule.in_tail(pull, at(0.9995), small)  # done already
+
+
 @pytest.fixture(scope="module")
 def press_scene(tmp_path_factory):
     """A cube whose top face is driven down at 0.6 m/s onto a fixed cube just below it:
@@ -157,3 +175,84 @@ def test_pulled_steps_finish_their_motion_without_intersection_or_inversion(pres
         assert np.sqrt(moved) <= 1e-3  # ≥ 99.9 % of the prescribed motion done
         assert len(find_intersections(x, mesh.edges, mesh.triangles)) == 0
         assert tet_signed_volumes(x, np.ascontiguousarray(sim.model.tets)).min() > 0.0
+
+
+def _pulling(press_scene, completion):
+    """The press scene's first step with its pull started and the top face at
+    ``completion`` of its motion."""
+    sim = Simulation(build_model(load_scene(press_scene)))
+    objective = sim.objective(sim.state)
+    ctx = objective.ctx
+    kin = ctx.kinematic.copy()
+    x = ctx.x_start.copy()
+    x[kin] = 0.5 * (ctx.x_start[kin] + ctx.target[kin])
+    objective.follow_up(x, np.zeros(x.size), first=True)
+    assert objective.pull is not None
+    x[kin] = completion * ctx.target[kin] + (1.0 - completion) * ctx.x_start[kin]
+    return objective, x, kin
+
+
+def test_in_the_tail_the_pulled_vertices_are_placed_on_their_targets(press_scene):
+    """Nearly there and barely moving, with nothing in their way, the pulled vertices go
+    the rest of the way at once: the pull ends (another potential) with them exactly on
+    their targets, prescribed again; the rest of x and the line searches' CCD hint are
+    unchanged."""
+    objective, x, kin = _pulling(press_scene, 0.995)
+    revision = objective.revision
+    objective.last_ccd_alpha = 0.25
+    y = objective.follow_up(x, np.zeros(x.size), first=False)
+    assert objective.pull is None and objective.prescribed_complete()
+    assert objective.revision == revision + 1  # energies from before are not comparable
+    np.testing.assert_array_equal(y[kin], objective.target[kin])
+    np.testing.assert_array_equal(y[~kin], x[~kin])
+    np.testing.assert_array_equal(objective.kinematic, kin)
+    assert "boundary_pull" not in [t.term.name for t in objective.potential.terms]
+    assert objective.last_ccd_alpha == 0.25
+
+
+def test_where_the_rest_of_the_move_is_not_free_the_multipliers_update(press_scene,
+                                                                         monkeypatch):
+    """If contact or inversion would stop the pulled vertices short of their targets, they
+    stay pulled, and the multipliers take over the spring's force, as the original does."""
+    objective, x, kin = _pulling(press_scene, 0.995)
+    real_max_step = type(objective).max_step
+
+    def blocked(self, y, p):
+        line = real_max_step(self, y, p)
+        return replaced(line, max_alpha=0.5)
+
+    monkeypatch.setattr(type(objective), "max_step", blocked)
+    before = objective.pull
+    y = objective.follow_up(x, np.zeros(x.size), first=False)
+    assert y is x and objective.pull is not None and objective.pull.lam is not None
+    assert objective.pull.rho == before.rho and before.lam is None
+
+
+def test_steps_whose_pulls_end_by_placement_finish_their_motion_exactly(press_scene,
+                                                                       monkeypatch):
+    """With pulls that end only in their tail (never at 99.9 % done), the press scene's
+    steps still converge, with every prescribed vertex exactly on its target, free of
+    intersection and inversion."""
+    import functools
+
+    import ipcsim.potentials.objective as objective_module
+    from ipcsim.model.kinematics import kinematic_targets
+    from ipcsim.potentials.objective import StepObjective
+
+    monkeypatch.setattr(objective_module, "PullSchedule",
+                        functools.partial(PullSchedule, done=1.0))
+    placed = []
+    place = StepObjective._place_pulled
+    monkeypatch.setattr(StepObjective, "_place_pulled",
+                        lambda self, x: placed.append(place(self, x)) or placed[-1])
+    sim = Simulation(build_model(load_scene(press_scene)))
+    mesh = sim.contact.mesh
+    for _ in range(3):
+        kin, target = kinematic_targets(sim.model, sim.state.x, sim.state.step * sim.h, sim.h)
+        row = sim.step().row
+        x = sim.state.x
+        assert row["converged"] and row["newton_iterations"] < 40
+        np.testing.assert_array_equal(x[kin], target[kin])
+        assert len(find_intersections(x, mesh.edges, mesh.triangles)) == 0
+        assert tet_signed_volumes(x, np.ascontiguousarray(sim.model.tets)).min() > 0.0
+    assert any(p is not None for p in placed)
