@@ -94,7 +94,7 @@ class PullSchedule:
     started_at: float  # the completion when the pull started
     small_step: float
     done: float = 1.0 - 1e-3  # the completion at which a pull ends
-    tail: float = 0.99  # the completion from which the multipliers update
+    tail: float = 0.99  # the completion from which a pull is in its tail (``in_tail``)
 
     def in_tail(self, pull: BoundaryPull, x, p) -> bool:
         """Whether the vertices have nearly closed in: the step small, ``tail`` done and

@@ -233,14 +233,17 @@ def test_steps_whose_pulls_end_by_placement_finish_their_motion_exactly(press_sc
     """With pulls that end only in their tail (never at 99.9 % done), the press scene's
     steps still converge, with every prescribed vertex exactly on its target, free of
     intersection and inversion."""
-    import functools
+    import dataclasses
 
     import ipcsim.potentials.objective as objective_module
     from ipcsim.model.kinematics import kinematic_targets
     from ipcsim.potentials.objective import StepObjective
 
-    monkeypatch.setattr(objective_module, "PullSchedule",
-                        functools.partial(PullSchedule, done=1.0))
+    @dataclasses.dataclass(frozen=True)
+    class EndsOnlyInItsTail(PullSchedule):
+        done: float = 1.0
+
+    monkeypatch.setattr(objective_module, "PullSchedule", EndsOnlyInItsTail)
     placed = []
     place = StepObjective._place_pulled
     monkeypatch.setattr(StepObjective, "_place_pulled",

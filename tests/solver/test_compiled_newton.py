@@ -2,7 +2,8 @@
 bit for bit: every iterate, κ, row and contact count, on two small boxes in contact with
 each other and the ground (friction, Newmark with damping, prescribed vertices that CCD
 stops and a pull takes over), at the iteration cap, where the line search gives up, and
-where an iteration would raise (Python does it again and names the culprit)."""
+where an iteration would raise (Python does it again and names the culprit), and where a
+pull ends with its vertices placed on their targets."""
 
 from __future__ import annotations
 
@@ -288,3 +289,36 @@ def test_the_kinematic_completion_rule_is_the_python_loops(tmp_path, monkeypatch
     steps = step_both(compiled, plain, monkeypatch, steps=4)
     assert statuses.count(kn.CONVERGED) >= 3 and min(made) > 0.0  # there was motion
     assert all(rows[0]["alpha"] > 0.0 for rows in steps)  # and it was still taken
+
+
+PRESS = """shapes input 2
+box.msh 0 0.205 0  0 0 0  1 1 1  DBC -0.1 0.9 -0.1  1.1 1.1 1.1  0 -0.6 0  0 0 0
+box.msh 0 0 0  0 0 0  1 1 1  DBC -0.1 -0.1 -0.1  1.1 1.1 1.1  0 0 0  0 0 0
+time 0.15 0.05
+stiffness 1e5 0.4
+turnOffGravity
+"""
+
+
+def test_a_pull_that_ends_by_placement_is_the_same_compiled(tmp_path, monkeypatch, statuses):
+    """A top face pressed onto a fixed box, with pulls that end only in their tail, where
+    the pulled vertices are placed on their targets: the compiled iterations go on from
+    the placed x exactly as the Python loop does."""
+    import dataclasses
+
+    import ipcsim.potentials.objective as objective_module
+    from ipcsim.potentials.boundary_pull import PullSchedule
+
+    @dataclasses.dataclass(frozen=True)
+    class EndsOnlyInItsTail(PullSchedule):
+        done: float = 1.0
+
+    monkeypatch.setattr(objective_module, "PullSchedule", EndsOnlyInItsTail)
+    placed = []
+    place = StepObjective._place_pulled
+    monkeypatch.setattr(StepObjective, "_place_pulled",
+                        lambda self, x: placed.append(place(self, x)) or placed[-1])
+    compiled, plain = (simulation(tmp_path, PRESS, on, monkeypatch) for on in (True, False))
+    step_both(compiled, plain, monkeypatch, steps=3)
+    assert sum(p is not None for p in placed) >= 2  # in both simulations
+    assert "pulling" in statuses
