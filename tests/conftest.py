@@ -18,3 +18,26 @@ def ipc_examples() -> Path:
 @pytest.fixture
 def repo_root() -> Path:
     return REPO_ROOT
+
+
+@pytest.fixture
+def pulls_end_by_placement(monkeypatch) -> list:
+    """Pulls of prescribed vertices end only in their tail, where ``StepObjective`` places
+    the vertices on their targets (never at 99.9 % done); returns what each placement
+    attempt gave (the placed x, or None where the move was not free)."""
+    import dataclasses
+
+    import ipcsim.potentials.objective as objective_module
+    from ipcsim.potentials.boundary_pull import PullSchedule
+    from ipcsim.potentials.objective import StepObjective
+
+    @dataclasses.dataclass(frozen=True)
+    class EndsOnlyInItsTail(PullSchedule):
+        done: float = 1.0
+
+    monkeypatch.setattr(objective_module, "PullSchedule", EndsOnlyInItsTail)
+    placed = []
+    place = StepObjective._place_pulled
+    monkeypatch.setattr(StepObjective, "_place_pulled",
+                        lambda self, x: placed.append(place(self, x)) or placed[-1])
+    return placed

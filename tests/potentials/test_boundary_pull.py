@@ -27,6 +27,13 @@ def _pull(rng, k=5, n=9, lam=True) -> tuple[BoundaryPull, np.ndarray]:
     return pull, rng.random((n, 3))
 
 
+def _at(pull: BoundaryPull, x: np.ndarray, completion: float) -> np.ndarray:
+    """x with the pulled vertices at ``completion`` of the way from start to target."""
+    y = x.copy()
+    y[pull.vertices] = completion * pull.target + (1 - completion) * pull.start
+    return y
+
+
 def test_gradient_and_hessian_match_finite_differences():
     rng = np.random.default_rng(0)
     pull, x = _pull(rng)
@@ -81,9 +88,7 @@ def test_the_schedule_stiffens_until_the_vertices_are_close_then_updates_multipl
     big, small = np.full(6, 1.0), np.full(6, 1e-4)
 
     def at(completion):
-        y = x.copy()
-        y[pull.vertices] = completion * pull.target + (1 - completion) * pull.start
-        return y
+        return _at(pull, x, completion)
 
     assert schedule.next(pull, at(0.9995), big) == (None, True)  # done
     nxt, changed = schedule.next(pull, at(0.3), big)  # fell back behind its start
@@ -105,9 +110,7 @@ def test_the_schedules_tail_is_a_small_step_from_99_percent_until_done():
     big, small = np.full(6, 1.0), np.full(6, 1e-4)
 
     def at(completion):
-        y = x.copy()
-        y[pull.vertices] = completion * pull.target + (1 - completion) * pull.start
-        return y
+        return _at(pull, x, completion)
 
     assert schedule.in_tail(pull, at(0.995), small)
     assert not schedule.in_tail(pull, at(0.995), big)  # still moving
@@ -228,26 +231,14 @@ def test_where_the_rest_of_the_move_is_not_free_the_multipliers_update(press_sce
     assert objective.pull.rho == before.rho and before.lam is None
 
 
-def test_steps_whose_pulls_end_by_placement_finish_their_motion_exactly(press_scene,
-                                                                       monkeypatch):
+def test_steps_whose_pulls_end_by_placement_finish_their_motion_exactly(
+        press_scene, pulls_end_by_placement):
     """With pulls that end only in their tail (never at 99.9 % done), the press scene's
     steps still converge, with every prescribed vertex exactly on its target, free of
     intersection and inversion."""
-    import dataclasses
-
-    import ipcsim.potentials.objective as objective_module
     from ipcsim.model.kinematics import kinematic_targets
-    from ipcsim.potentials.objective import StepObjective
 
-    @dataclasses.dataclass(frozen=True)
-    class EndsOnlyInItsTail(PullSchedule):
-        done: float = 1.0
-
-    monkeypatch.setattr(objective_module, "PullSchedule", EndsOnlyInItsTail)
-    placed = []
-    place = StepObjective._place_pulled
-    monkeypatch.setattr(StepObjective, "_place_pulled",
-                        lambda self, x: placed.append(place(self, x)) or placed[-1])
+    placed = pulls_end_by_placement
     sim = Simulation(build_model(load_scene(press_scene)))
     mesh = sim.contact.mesh
     for _ in range(3):

@@ -300,24 +300,12 @@ turnOffGravity
 """
 
 
-def test_a_pull_that_ends_by_placement_is_the_same_compiled(tmp_path, monkeypatch, statuses):
+def test_a_pull_that_ends_by_placement_is_the_same_compiled(tmp_path, monkeypatch, statuses,
+                                                            pulls_end_by_placement):
     """A top face pressed onto a fixed box, with pulls that end only in their tail, where
     the pulled vertices are placed on their targets: the compiled iterations go on from
     the placed x exactly as the Python loop does."""
-    import dataclasses
-
-    import ipcsim.potentials.objective as objective_module
-    from ipcsim.potentials.boundary_pull import PullSchedule
-
-    @dataclasses.dataclass(frozen=True)
-    class EndsOnlyInItsTail(PullSchedule):
-        done: float = 1.0
-
-    monkeypatch.setattr(objective_module, "PullSchedule", EndsOnlyInItsTail)
-    placed = []
-    place = StepObjective._place_pulled
-    monkeypatch.setattr(StepObjective, "_place_pulled",
-                        lambda self, x: placed.append(place(self, x)) or placed[-1])
+    placed = pulls_end_by_placement
     compiled, plain = (simulation(tmp_path, PRESS, on, monkeypatch) for on in (True, False))
     step_both(compiled, plain, monkeypatch, steps=3)
     assert sum(p is not None for p in placed) >= 2  # in both simulations
