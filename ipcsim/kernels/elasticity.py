@@ -53,7 +53,7 @@ from __future__ import annotations
 import numpy as np
 from ipcsim.kernels.jit import njit, prange
 
-from ipcsim.kernels.linalg import cofactor3, det3, tet_edge_matrix
+from ipcsim.kernels.linalg import cofactor3, det3, hypot, tet_edge_matrix
 from ipcsim.kernels.scatter import scatter_local_gradients
 from ipcsim.kernels.twin import kernel
 
@@ -164,7 +164,7 @@ def _givens_qr(B, U):
             col, r0, r1 = 1, 1, 2
         ga = B[r0, col]
         gb = B[r1, col]
-        r = np.hypot(ga, gb)
+        r = hypot(ga, gb)
         if r == 0.0:
             continue
         c = ga / r

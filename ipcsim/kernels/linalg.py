@@ -241,6 +241,22 @@ def _tridiagonalize(V, d, e):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def hypot(a, b):
+    """√(a² + b²) without overflow or underflow, to within two ulps: the plain formula
+    wherever its squares neither overflow nor underflow, else scaled by the larger.
+    libm's ``hypot``, which rounds exactly, was a third of a 12 x 12 eigen-decomposition's
+    time."""
+    a, b = abs(a), abs(b)
+    big, small = max(a, b), min(a, b)
+    if 1e-150 < big < 1e150:
+        return np.sqrt(big * big + small * small)
+    if big == 0.0 or big == np.inf:
+        return big
+    r = small / big
+    return big * np.sqrt(1.0 + r * r)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def _tridiagonal_ql(V, d, e):
     # QL iterations on the tridiagonal (d, e[1:]) until each off-diagonal entry is below
     # ε times the largest |d| + |e| seen; the rotations are applied to V's columns, so
@@ -262,7 +278,7 @@ def _tridiagonal_ql(V, d, e):
                 # Wilkinson shift from the leading 2 x 2 block
                 g = d[l]
                 p = (d[l + 1] - g) / (2.0 * e[l])
-                r = np.hypot(p, 1.0)
+                r = hypot(p, 1.0)
                 if p < 0.0:
                     r = -r
                 d[l] = e[l] / (p + r)
@@ -283,7 +299,7 @@ def _tridiagonal_ql(V, d, e):
                     s2 = s
                     g = c * e[i]
                     h = c * p
-                    r = np.hypot(p, e[i])
+                    r = hypot(p, e[i])
                     e[i + 1] = s * r
                     s = e[i] / r
                     c = p / r

@@ -10,6 +10,8 @@ NormalCollisions built at the same positions (default IPC set, no area weighting
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -372,6 +374,20 @@ def test_symmetric_eigen_decomposes_to_round_off():
         assert np.abs((V * w) @ V.T - A).max() <= 1e-13 * scale
         assert np.abs(V.T @ V - np.eye(n)).max() <= 1e-13
         assert np.abs(np.sort(w) - np.linalg.eigvalsh(A)).max() <= 1e-13 * scale
+
+
+def test_hypot_within_two_ulps_of_libm():
+    rng = np.random.default_rng(13)
+    exponents = rng.uniform(-320, 308, (2000, 2))
+    signs = rng.choice([-1.0, 1.0], (2000, 2))
+    pairs = [tuple(v) for v in signs * 10.0 ** exponents]
+    pairs += [(0.0, 0.0), (0.0, -3.0), (3.0, 4.0), (1e308, 1e308), (5e-324, 5e-324),
+              (1e-160, 1e-160), (1e160, 1.0)]
+    for a, b in pairs:
+        exact = math.hypot(a, b)
+        assert abs(LA.hypot(a, b) - exact) <= 2 * math.ulp(exact), (a, b)
+    assert LA.hypot(np.inf, 1.0) == LA.hypot(1.0, -np.inf) == np.inf
+    assert np.isnan(LA.hypot(np.nan, 1.0))
 
 
 def test_symmetric_eigen_ends_on_a_nan():
