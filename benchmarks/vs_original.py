@@ -23,9 +23,11 @@ Newton iterations per step, contacts per step (ipcsim: steps.csv ``contacts_tota
 original: the last ``# constraint = N`` of each step in its stdout.txt, which may count
 differently), peak resident memory of the program's process (its VmHWM, read every
 20 ms while it runs: ``ru_maxrss`` would also count this process's memory, which a child
-holds between fork and exec) and the exit status. Times are medians over the repeats; each repeat runs the two
-programs in turn, the order swapped every repeat, so that the machine's load falls on
-both alike. Afterwards the trajectories are compared as ``ipcsim compare --rtol R
+holds between fork and exec) and the exit status. Times are medians over the repeats;
+each repeat runs the two programs in turn, the order swapped every repeat, so that the
+machine's load falls on both alike; the whole-process ratio is also taken repeat by
+repeat (its median and range, and in how many repeats ipcsim was the faster), which a
+load that drifts over minutes disturbs less than the ratio of the medians. Afterwards the trajectories are compared as ``ipcsim compare --rtol R
 IPCSIM_OUT ORIGINAL_OUT`` compares them (in-process): the step where the two part by more
 than R of the scene size, and their largest difference.
 
@@ -581,8 +583,23 @@ def summarise(st: Staged, verdict: dict) -> dict:
                                  row.get("original_steps_wall_s")) if both_ok else None)
     row["cpu_time_ratio"] = (_ratio(row.get("ipcsim_cpu_s"), row.get("original_cpu_s"))
                              if both_ok else None)
+    if both_ok:
+        row.update(paired_ratios(st.runs["original"], st.runs["ipcsim"]))
     row.update({f"compare_{k}": v for k, v in verdict.items()})
     return row
+
+
+def paired_ratios(original: list[Run], ipcsim: list[Run]) -> dict:
+    """The whole-process ratio repeat by repeat: the two runs of a repeat follow each
+    other, so a machine whose load drifts over minutes slows both alike, and the ratio
+    of the two medians hides how often each program was the faster. Their median, the
+    smallest and largest, and in how many repeats ipcsim took less time."""
+    paired = [i.wall_s / o.wall_s for o, i in zip(original, ipcsim) if o.wall_s > 0]
+    if not paired:
+        return {}
+    return {"paired_ratio": statistics.median(paired), "paired_ratio_min": min(paired),
+            "paired_ratio_max": max(paired),
+            "ipcsim_faster_repeats": sum(r < 1.0 for r in paired)}
 
 
 def _ratio(a, b) -> float | None:
@@ -661,6 +678,13 @@ def _steps(r: dict) -> str:
     return _f(a if a is not None else b, "d") if a == b or None in (a, b) else f"{a} / {b}"
 
 
+def _paired(r: dict) -> str:
+    if r.get("paired_ratio") is None:
+        return "–"
+    return (f"{r['paired_ratio']:.2f} ({r['paired_ratio_min']:.2f}–"
+            f"{r['paired_ratio_max']:.2f}), {r['ipcsim_faster_repeats']} of {r['repeats']}")
+
+
 def verdict_text(r: dict) -> str:
     v = r.get("compare_verdict")
     if v in (None, "cannot"):
@@ -674,6 +698,7 @@ def verdict_text(r: dict) -> str:
 
 
 HEADER = ("| scene | vertices | steps | original s | ipcsim s | ipcsim / original "
+          "| repeat by repeat: median (range), ipcsim faster "
           "| CPU s, original / ipcsim | steps only s, original / ipcsim "
           "| Newton it./step, original / ipcsim "
           "| contacts/step, original / ipcsim | peak MB, original / ipcsim "
@@ -687,7 +712,7 @@ def markdown(rows: list[dict]) -> str:
         lines.append(
             f"| {r['scene']} | {_f(vertices, ',d')} | {_steps(r)} "
             f"| {_sec(r.get('original_wall_s'))} | {_sec(r.get('ipcsim_wall_s'))} "
-            f"| {_f(r.get('ratio'))} "
+            f"| {_f(r.get('ratio'))} | {_paired(r)} "
             f"| {_sec(r.get('original_cpu_s'))} / {_sec(r.get('ipcsim_cpu_s'))} "
             f"| {_sec(r.get('original_steps_wall_s'))} / {_sec(r.get('ipcsim_steps_wall_s'))} "
             f"| {_pair(r.get('original_newton_per_step'), r.get('ipcsim_newton_per_step'), '.1f')} "
@@ -708,7 +733,8 @@ CSV_FIELDS = (
     "original_wall_all", "ipcsim_wall_all", "compare_verdict", "compare_first_step",
     "compare_first_time", "compare_max_rel", "compare_max_step", "compare_message",
     "date", "cpu", "cores", "load_before", "load_after", "threads",
-    "original_cpu_s", "ipcsim_cpu_s", "cpu_time_ratio")
+    "original_cpu_s", "ipcsim_cpu_s", "cpu_time_ratio", "paired_ratio", "paired_ratio_min",
+    "paired_ratio_max", "ipcsim_faster_repeats")
 
 
 def write_csv(rows: list[dict], info: dict, s: Settings, path: Path) -> None:

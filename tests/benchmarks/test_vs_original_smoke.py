@@ -85,8 +85,8 @@ def test_ipcsim_half_and_the_written_table(tmp_path):
     assert "Machine: " in table and "load average" in table
     cells = [c.strip() for c in table.splitlines()[-1].strip("|").split("|")]
     assert cells[:3] == ["hello world, 0.05 s", "432", "2"]
-    assert cells[3] == "–" and cells[5] == "–" and cells[-1] == "not compared"
-    assert cells[6] == f"– / {vs._sec(run.cpu_s)}"  # CPU s, original / ipcsim
+    assert cells[3] == "–" and cells[5] == cells[6] == "–" and cells[-1] == "not compared"
+    assert cells[7] == f"– / {vs._sec(run.cpu_s)}"  # CPU s, original / ipcsim
     with open(paths[0], newline="") as f:
         (written,) = list(csv.DictReader(f))
     assert written["ipcsim_steps"] == "2" and written["original_wall_s"] == ""
@@ -111,6 +111,9 @@ def test_both_programs_on_a_tiny_scene(tmp_path, capsys):
         assert float(row[f"{program}_cpu_s"]) > 0
     assert float(row["cpu_time_ratio"]) == pytest.approx(
         float(row["ipcsim_cpu_s"]) / float(row["original_cpu_s"]))
+    assert float(row["paired_ratio"]) == pytest.approx(  # one repeat: the ratio itself
+        float(row["ipcsim_wall_s"]) / float(row["original_wall_s"]))
+    assert row["ipcsim_faster_repeats"] in ("0", "1")
     assert row["compare_verdict"] in ("same", "different")
     assert float(row["compare_max_rel"]) >= 0
 
@@ -169,7 +172,26 @@ def test_a_failed_run_has_no_ratio(tmp_path):
     assert row["original_rc"] == 1 and row["ipcsim_wall_s"] == 0.6
     assert row["ratio"] is None and row["steps_ratio"] is None
     assert row["cpu_time_ratio"] is None and row["ipcsim_cpu_s"] == 0.5
+    assert "paired_ratio" not in row and "–" in vs.markdown([row])
     staged.runs["original"][0] = vs.Run(0, 0.3, 11.0, cpu_s=0.25, steps_wall_s=0.29)
     row = vs.summarise(staged, {})
     assert row["ratio"] == 0.6 / 0.3 and row["steps_ratio"] == 0.4 / 0.29
     assert row["cpu_time_ratio"] == 0.5 / 0.25
+
+
+def test_the_ratio_repeat_by_repeat(tmp_path):
+    """Each repeat's two runs give one ratio: their median and range, and how many
+    repeats ipcsim won. Here the medians' ratio (0.5 / 0.5 = 1) hides that ipcsim was
+    the faster in two of three repeats, each run beside the original's of its repeat."""
+    scene = vs.SMOKE_REPO
+    staged = vs.Staged(scene, vs.REPO_ROOT / scene.script, tmp_path / "a.txt", "a")
+    for original, ipcsim in ((0.4, 0.3), (0.5, 0.5), (0.8, 0.6)):
+        staged.runs["original"].append(vs.Run(0, original, 11.0))
+        staged.runs["ipcsim"].append(vs.Run(0, ipcsim, 40.0))
+    row = vs.summarise(staged, {})
+    assert row["ratio"] == 1.0
+    assert row["paired_ratio"] == row["paired_ratio_min"] == pytest.approx(0.75)
+    assert row["paired_ratio_max"] == 1.0 and row["ipcsim_faster_repeats"] == 2
+    table = vs.markdown([row])
+    assert "| 1.00 | 0.75 (0.75–1.00), 2 of 3 |" in table
+    assert table.splitlines()[0].count("|") == table.splitlines()[2].count("|")
