@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import os
+from pathlib import Path
 
 import pytest
 from examples import IPC_EXAMPLES, IPC_EXAMPLES_FULL
@@ -76,13 +77,14 @@ def test_ipcsim_half_and_the_written_table(tmp_path):
     assert 0 < run.cpu_s  # user + system time of the process
     st.runs["ipcsim"].append(run)
     row = vs.summarise(st, {})
-    info = vs.machine() | {"load_after": vs._load()}
+    info = vs.machine() | {"load_after": vs._load(), "output_fs": "tmpfs"}
     paths = vs.write_outputs([row], info, s, tmp_path / "docs")
     assert [p.name for p in paths] == ["vs_original.csv", "vs_original_table.md",
                                        "vs_original.png"]
     assert all(p.stat().st_size > 0 for p in paths)
     table = paths[1].read_text()
     assert "Machine: " in table and "load average" in table
+    assert "outputs written to tmpfs" in table
     cells = [c.strip() for c in table.splitlines()[-1].strip("|").split("|")]
     assert cells[:3] == ["hello world, 0.05 s", "432", "2"]
     assert cells[3] == "–" and cells[5] == cells[6] == "–" and cells[-1] == "not compared"
@@ -90,6 +92,19 @@ def test_ipcsim_half_and_the_written_table(tmp_path):
     with open(paths[0], newline="") as f:
         (written,) = list(csv.DictReader(f))
     assert written["ipcsim_steps"] == "2" and written["original_wall_s"] == ""
+    assert written["output_fs"] == "tmpfs"
+
+
+@pytest.mark.skipif(not os.path.isfile("/proc/mounts"), reason="no /proc/mounts here")
+def test_the_file_system_of_the_outputs(tmp_path):
+    """The type /proc/mounts gives the longest mount point holding the folder: the root's
+    for the root, and the same for a folder inside another one."""
+    mounts = [ln.split() for ln in open("/proc/mounts").read().splitlines()]
+    root_type = next(f[2] for f in reversed(mounts) if f[1] == "/")
+    assert vs.file_system(Path("/")) == root_type
+    assert vs.file_system(tmp_path / "not there yet") == vs.file_system(tmp_path) != ""
+    if any(f[1] == "/proc" for f in mounts):
+        assert vs.file_system(Path("/proc/self")) == "proc"
 
 
 def test_both_programs_on_a_tiny_scene(tmp_path, capsys):
