@@ -27,9 +27,11 @@ holds between fork and exec) and the exit status. Times are medians over the rep
 each repeat runs the two programs in turn, the order swapped every repeat, so that the
 machine's load falls on both alike; the whole-process ratio is also taken repeat by
 repeat (its median and range, and in how many repeats ipcsim was the faster), which a
-load that drifts over minutes disturbs less than the ratio of the medians. Afterwards the trajectories are compared as ``ipcsim compare --rtol R
-IPCSIM_OUT ORIGINAL_OUT`` compares them (in-process): the step where the two part by more
-than R of the scene size, and their largest difference.
+load that drifts over minutes disturbs less than the ratio of the medians. Afterwards
+the trajectories are compared as ``ipcsim compare --rtol R IPCSIM_OUT ORIGINAL_OUT``
+compares them (in-process): the step where the two part by more than R of the scene
+size, and their largest difference. The table's header names the file system the
+outputs go to (``--work``): tiny scenes' times depend on what a file costs to create.
 
 Before measuring, ipcsim runs a few scenes untimed so that numba's cache is warm
 (``--no-warmup`` to measure a cold start). Both programs run on ``--threads`` threads
