@@ -22,10 +22,9 @@ from typing import NoReturn
 # measured no slower on one BLAS thread (docs/benchmarks.md, "Another machine, ...").
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import numpy as np  # noqa: E402  (after the BLAS setting)
-
-from . import __version__
-from .errors import IpcsimError, SceneError, excerpt, one_line
+from . import __version__  # noqa: E402  (numpy loads in main, after the BLAS setting)
+from .errors import IpcsimError, SceneError, excerpt, one_line  # noqa: E402
+from .start_up import pause_collector, resume_collector  # noqa: E402
 
 
 def _cmd_check(args) -> int:
@@ -255,7 +254,11 @@ def main(argv: list[str] | None = None) -> int:
     if getattr(args, "func", None) is None:
         parser.print_help()
         return 2
+    if args.func is not _cmd_run:
+        resume_collector()  # a run resumes it once built, before its first step
     try:
+        import numpy as np
+
         # the simulation checks for NaN and infinity itself and names the term; numpy's
         # own overflow warnings would only add lines
         with warnings.catch_warnings(), np.errstate(all="ignore"):
@@ -275,6 +278,8 @@ def main(argv: list[str] | None = None) -> int:
         where = f"{exc.filename}: " if exc.filename else ""
         print(one_line(f"ipcsim: {where}{exc.strerror or exc}"), file=sys.stderr)
         return 2
+    finally:
+        resume_collector()
 
 
 def console() -> NoReturn:
@@ -284,7 +289,11 @@ def console() -> NoReturn:
     left (numpy's, the modules', the run's): 17 of a tiny scene's 24 ms of exit, which
     find nothing to finalise, since every file a command writes is closed before ``main``
     returns. So the objects are frozen out of that pass (``gc.freeze``); only a process
-    that ends here does it (tests call ``main`` many times in one process)."""
+    that ends here does it (tests call ``main`` many times in one process).
+
+    The collector is also paused while the modules load and the scene is built
+    (``ipcsim.start_up``)."""
+    pause_collector()
     status = main()
     gc.freeze()
     sys.exit(status)

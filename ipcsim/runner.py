@@ -29,6 +29,7 @@ import numpy as np
 
 from .errors import (OutputError, RunFailed, RunInterrupted, SceneError, SolverError,
                      excerpt)
+from .start_up import resume_collector
 
 __all__ = ["run", "RunResult", "Reporter", "build", "frame_interval_for"]
 
@@ -342,6 +343,7 @@ def _simulate(run: _Run) -> tuple[int, str | None, str | None]:
     run.sim.on_iteration = run.reporter.on_iteration
     progress = RunProgress(run.first_step, run.n_steps, run.reporter.progress,
                            compiled=compile_seconds)
+    resume_collector()  # paused by the command while it started (start_up.py)
     with step_log, newton_log, StopRequest() as stop:
         try:
             _step_loop(run, step_log, newton_log, progress, stop)

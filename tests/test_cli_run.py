@@ -70,6 +70,58 @@ def test_the_command_exits_with_mains_status_and_frozen_objects(monkeypatch):
     assert exit_info.value.code == 3 and calls == ["main", "freeze"]
 
 
+def _console_with(monkeypatch, argv, seen: dict):
+    """Run ``console`` as the ``ipcsim`` process would, on ``argv``, recording in ``seen``
+    whether the collector ran when ``main`` began, at the first step and in ``check``;
+    returns its exit status. The collector runs again afterwards whatever happened."""
+    import gc
+
+    import ipcsim.cli as cli
+    from ipcsim.simulation import Simulation
+
+    real_main, real_step, real_check = cli.main, Simulation.step, cli._cmd_check
+
+    def main():
+        seen["main"] = gc.isenabled()
+        return real_main(argv)
+
+    def step(self):
+        seen.setdefault("step", gc.isenabled())
+        return real_step(self)
+
+    def check(args):
+        seen["check"] = gc.isenabled()
+        return real_check(args)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(cli, "main", main)
+        patch.setattr(Simulation, "step", step)
+        patch.setattr(cli, "_cmd_check", check)
+        patch.setattr(gc, "freeze", lambda: None)  # leave pytest's objects collectable
+        try:
+            with pytest.raises(SystemExit) as exit_info:
+                cli.console()
+            return exit_info.value.code, gc.isenabled()
+        finally:
+            gc.enable()
+
+
+def test_the_collector_is_paused_while_the_command_starts_only(drop_scene, tmp_path,
+                                                                monkeypatch):
+    """``console`` pauses the cycle collector while modules load and the scene is built
+    (ipcsim/start_up.py); a run's steps, other commands and failures run with it."""
+    seen = {}
+    status = _console_with(monkeypatch, ["run", str(drop_scene), "-o",
+                                         str(tmp_path / "out"), "-q"], seen)
+    assert status == (0, True) and seen == {"main": False, "step": True}
+    seen = {}
+    assert _console_with(monkeypatch, ["check", str(drop_scene)], seen) == (0, True)
+    assert seen == {"main": False, "check": True}
+    seen = {}
+    assert _console_with(monkeypatch, ["run", str(tmp_path / "no.txt")], seen) == (2, True)
+    assert seen == {"main": False}
+
+
 def test_python_m_ipcsim_runs_a_scene_and_exits_0(tmp_path):
     write_box_msh(tmp_path / "cube.msh", cells=(1, 1, 1))
     scene = tmp_path / "drop.txt"
