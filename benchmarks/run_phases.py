@@ -26,6 +26,9 @@ The phases, nested as they run:
                                      evaluation (``NewtonSolver._finish``)
         frames, logs, checkpoints    ``_write_frame``, ``CsvLog.append_rows``, ``_checkpoint``
       run.json                     ``runner._run_info``
+    cycle collector              its passes (``gc.callbacks``), inside the phases above;
+                                 paused while an install that pauses it starts
+                                 (``ipcsim/start_up.py``), as its ``console`` does
 
 A phase's "rest" is its time outside the phases listed under it; a module first loaded
 inside a phase counts under "imports", not there. Times are wall clock
@@ -73,11 +76,23 @@ ORDER = {phase: i for i, (phase, _, _) in enumerate(CLOCKED)}
 CHILD = r'''
 import sys, time
 t0 = time.perf_counter()
-import builtins, dataclasses, functools, importlib, json
+import builtins, dataclasses, functools, gc, importlib, json
 clocks_file, clocked_functions, ipcsim_args = sys.argv[1], json.loads(sys.argv[2]), sys.argv[3:]
 clocks, stack, importing, in_main = {}, [], [], []
 def add(path, dt):
     clocks[path] = clocks.get(path, 0.0) + dt
+collecting = []
+def on_collection(phase, info):  # the cycle collector's passes, wherever they fall
+    if phase == "start":
+        collecting.append(time.perf_counter())
+    elif collecting:
+        add("collector", time.perf_counter() - collecting.pop())
+gc.callbacks.append(on_collection)
+try:  # an install that pauses the collector while it starts: as its console does
+    from ipcsim.start_up import pause_collector
+    pause_collector()
+except ImportError:
+    pass
 make_class = getattr(dataclasses, "_process_class", None)  # the work of @dataclass
 if make_class is not None:
     def timed_class(*args, **kwargs):
@@ -204,6 +219,7 @@ def rows(medians: dict[str, float]) -> list[tuple[str, int, float]]:
                         rest))
 
     walk("main", 1)
+    out.append(("cycle collector (inside the phases above)", 1, medians.get("collector", 0.0)))
     return out
 
 

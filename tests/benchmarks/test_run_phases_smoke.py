@@ -36,6 +36,8 @@ def test_every_phase_of_a_run_is_timed_and_they_add_up(repo_root, tmp_path, caps
     main = by_depth[1]["main"]
     assert all(0.0 < by_depth[2][n] < main for n in UNDER_MAIN)
     assert by_depth[2]["of which making the dataclasses"] < by_depth[1]["imports"]
+    # the collector's passes fall inside the phases, not beside them
+    assert 0.0 <= by_depth[1]["cycle collector (inside the phases above)"] < whole
 
 
 def test_a_missing_scene_is_refused(tmp_path, capsys):
