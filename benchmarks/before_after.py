@@ -6,9 +6,12 @@
 Each repeat runs every scene once with ``--before`` and once with ``--after`` (each an
 ``ipcsim`` command, e.g. the console script of another checkout's virtual environment),
 one right after the other, so that a busy machine slows both alike. Prints per scene
-and build the median whole-process wall time (the range in parentheses), the steps'
-own time (steps.csv), Newton iterations and peak memory (run.json), and after/before of
-the medians; ``--out`` also writes the rows as ``before_after.csv``. Scenes are run from
+and build the median whole-process wall time (the range in parentheses), the process's
+CPU time (user + system, from ``wait4``: steadier than the wall time where other
+tenants come and go), the steps' own time (steps.csv), Newton iterations and peak
+memory (run.json), after/before of the medians, and the median of after/before taken
+repeat by repeat (the two runs of a repeat side by side); ``--out`` also writes the rows
+as ``before_after.csv``. Scenes are run from
 their own folder's parent (where an original script's ``input/...`` meshes resolve),
 into a temporary folder, on ``--threads`` threads (``IPCSIM_THREADS``, default 1), and
 without ``PYTHONPATH``, so that each command runs its own install.
@@ -29,8 +32,8 @@ from pathlib import Path
 
 from benchmarks.vs_original import ipcsim_env
 
-FIELDS = ("scene", "build", "runs", "wall_s", "wall_min_s", "wall_max_s", "steps_s",
-          "newton_iterations", "peak_memory_mb")
+FIELDS = ("scene", "build", "runs", "wall_s", "wall_min_s", "wall_max_s", "cpu_s",
+          "paired_wall_ratio", "steps_s", "newton_iterations", "peak_memory_mb")
 
 
 def _scene_root(scene: Path) -> Path:
@@ -48,16 +51,21 @@ def run_once(command: str, scene: Path, out: Path, steps: int | None, threads: i
     if steps is not None:
         args += ["--steps", str(steps)]
     start = time.perf_counter()
-    done = subprocess.run(args, cwd=_scene_root(scene), env=ipcsim_env(threads),
-                          capture_output=True, text=True)
+    with subprocess.Popen(args, cwd=_scene_root(scene), env=ipcsim_env(threads),
+                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                          text=True) as proc:
+        stderr = proc.stderr.read()
+        _, status, usage = os.wait4(proc.pid, 0)
+        proc.returncode = os.waitstatus_to_exitcode(status)
     wall = time.perf_counter() - start
-    if done.returncode != 0:
-        raise RuntimeError(f"{command} on {scene} exited {done.returncode}: "
-                           f"{done.stderr.strip()[-300:]}")
+    if proc.returncode != 0:
+        raise RuntimeError(f"{command} on {scene} exited {proc.returncode}: "
+                           f"{stderr.strip()[-300:]}")
     with open(out / "steps.csv", newline="") as f:
         rows = list(csv.DictReader(f))
     info = json.loads((out / "run.json").read_text())
-    return {"wall_s": wall, "steps_s": sum(float(r["wall_s"]) for r in rows),
+    return {"wall_s": wall, "cpu_s": usage.ru_utime + usage.ru_stime,
+            "steps_s": sum(float(r["wall_s"]) for r in rows),
             "newton_iterations": sum(int(r["newton_iterations"]) for r in rows),
             "peak_memory_mb": info.get("peak_memory_mb")}
 
@@ -74,9 +82,13 @@ def measure(scenes: list[Path], builds: dict[str, str], repeats: int, steps: int
     rows = []
     for (scene, build), figures in runs.items():
         walls = [r["wall_s"] for r in figures]
+        before = runs[scene, next(iter(builds))]  # this build's partner in each repeat
         rows.append({"scene": str(scene), "build": build, "runs": len(figures),
                      "wall_s": statistics.median(walls), "wall_min_s": min(walls),
                      "wall_max_s": max(walls),
+                     "cpu_s": statistics.median(r["cpu_s"] for r in figures),
+                     "paired_wall_ratio": statistics.median(
+                         r["wall_s"] / b["wall_s"] for r, b in zip(figures, before)),
                      "steps_s": statistics.median(r["steps_s"] for r in figures),
                      "newton_iterations": statistics.median(r["newton_iterations"]
                                                             for r in figures),
@@ -87,15 +99,18 @@ def measure(scenes: list[Path], builds: dict[str, str], repeats: int, steps: int
 def table(rows: list[dict]) -> str:
     """The rows as a markdown table, before and after side by side per scene."""
     by = {(r["scene"], r["build"]): r for r in rows}
-    lines = ["| scene | whole s, before / after (after/before) | steps s, before / after | "
+    lines = ["| scene | whole s, before / after (after/before) | repeat by repeat | "
+             "CPU s, before / after (after/before) | steps s, before / after | "
              "Newton it., before / after | peak MB, before / after |",
-             "|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|"]
     for scene in dict.fromkeys(r["scene"] for r in rows):
         b, a = by[scene, "before"], by[scene, "after"]
         lines.append(
             f"| {Path(scene).stem} | {b['wall_s']:.3f} ({b['wall_min_s']:.2f}–"
             f"{b['wall_max_s']:.2f}) / {a['wall_s']:.3f} ({a['wall_min_s']:.2f}–"
             f"{a['wall_max_s']:.2f}) ({a['wall_s'] / b['wall_s']:.2f}) | "
+            f"{a['paired_wall_ratio']:.2f} | {b['cpu_s']:.3f} / {a['cpu_s']:.3f} "
+            f"({a['cpu_s'] / b['cpu_s']:.2f}) | "
             f"{b['steps_s']:.3f} / {a['steps_s']:.3f} | {b['newton_iterations']:g} / "
             f"{a['newton_iterations']:g} | {b['peak_memory_mb']:.0f} / "
             f"{a['peak_memory_mb']:.0f} |")

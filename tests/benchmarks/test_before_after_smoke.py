@@ -28,6 +28,8 @@ def test_one_scene_before_and_after(repo_root, tmp_path, capsys):
         assert r["runs"] == "2" and float(r["wall_s"]) > float(r["steps_s"]) > 0
         assert float(r["wall_min_s"]) <= float(r["wall_s"]) <= float(r["wall_max_s"])
         assert float(r["newton_iterations"]) >= 3  # three steps, one iteration at least each
+        assert 0 < float(r["cpu_s"]) and float(r["paired_wall_ratio"]) > 0
+    assert float(rows[0]["paired_wall_ratio"]) == 1.0  # before against itself
 
 
 def test_a_missing_scene_is_refused(tmp_path, capsys):
