@@ -15,17 +15,24 @@ def write_box_msh(path, cells=(2, 2, 2), size=(0.2, 0.2, 0.2), base_y=0.0) -> Pa
     return write_msh(Path(path), points, tets)
 
 
-def packages_a_run_imports(scene, out, *args: str) -> tuple[int, set[str]]:
+def modules_a_run_imports(scene, out, *args: str) -> tuple[int, set[str]]:
     """Run ``ipcsim run scene -o out -q *args`` in a fresh interpreter: its exit status
-    and the top-level packages it imported (for the tests that keep imports out of a
-    small scene's start)."""
+    and every module it imported (for the tests that keep imports out of a small scene's
+    start)."""
     import subprocess
     import sys
 
     code = ("import sys\nfrom ipcsim.cli import main\n"
             f"status = main(['run', {str(scene)!r}, '-o', {str(out)!r}, '-q', *{args!r}])\n"
-            "print(status, ' '.join(sorted({m.split('.')[0] for m in sys.modules})))\n")
+            "print(status, ' '.join(sorted(sys.modules)))\n")
     printed = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                              check=True).stdout.strip().splitlines()[-1]
-    status, _, packages = printed.partition(" ")
-    return int(status), set(packages.split())
+    status, _, modules = printed.partition(" ")
+    return int(status), set(modules.split())
+
+
+def packages_a_run_imports(scene, out, *args: str) -> tuple[int, set[str]]:
+    """The exit status of ``modules_a_run_imports`` and the top-level packages of the
+    modules it imported."""
+    status, modules = modules_a_run_imports(scene, out, *args)
+    return status, {m.split(".")[0] for m in modules}

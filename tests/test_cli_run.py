@@ -122,6 +122,18 @@ def test_the_collector_is_paused_while_the_command_starts_only(drop_scene, tmp_p
     assert seen == {"main": False}
 
 
+def test_a_plain_run_leaves_the_legacy_scripts_and_the_penalty_baseline_unloaded(
+        drop_scene, tmp_path):
+    """What only a ``script NAME`` scene or the penalty baseline uses is imported by
+    those alone (a few milliseconds of a tiny scene's start)."""
+    from generated import modules_a_run_imports
+
+    status, modules = modules_a_run_imports(drop_scene, tmp_path / "out", "--steps", "2")
+    assert status == 0 and "ipcsim.model.builder" in modules
+    assert "ipcsim.model.legacy_scripts" not in modules
+    assert "ipcsim.potentials.penalty_contact" not in modules
+
+
 def test_python_m_ipcsim_runs_a_scene_and_exits_0(tmp_path):
     write_box_msh(tmp_path / "cube.msh", cells=(1, 1, 1))
     scene = tmp_path / "drop.txt"

@@ -25,7 +25,6 @@ import numpy as np
 from ..errors import MeshError, SceneError
 from ..scene.spec import SUPPORTED_SCRIPTS, SceneSpec, ShapeSpec
 from . import mesh_io
-from . import legacy_scripts
 from .kinematics import rotation_axis_angle, rotation_xyz
 from .model import (GRAVITY, ConstraintSolverSettings, DirichletSet, MeshSequence, Model,
                     NeumannSet, SolverSettings, TimeSettings)
@@ -323,6 +322,8 @@ def _prescribed_motion(scene, parts, offsets, placed, obstacles, warnings) -> _M
         for p in parts:
             _shape_dirichlet_sets(scene, p, offsets, motion, warnings)
     else:
+        from . import legacy_scripts  # a script scene only
+
         _warn_ignored_shape_motion(scene, parts, warnings)
         obstacle_points = np.concatenate([ob.points for ob in obstacles] or [np.zeros((0, 3))])
         scripted = legacy_scripts.script_motion(legacy_scripts.ScriptScene(
@@ -368,6 +369,8 @@ def _shape_dirichlet_sets(scene, p: _Part, offsets, motion: _Motion, warnings) -
 
 def _warn_ignored_shape_motion(scene, parts, warnings) -> None:
     """A legacy script replaces the shapes' own motion, as in the original."""
+    from .legacy_scripts import FIXES_CODIM
+
     ignored = [k for k, present in (
         ("DBC", any(s.dbc for s in scene.shapes)),
         ("linearVelocity", any(s.linear_velocity is not None for s in scene.shapes)),
@@ -377,7 +380,7 @@ def _warn_ignored_shape_motion(scene, parts, warnings) -> None:
     if ignored:
         warnings.append(f"script {scene.script}: per-shape {', '.join(ignored)} "
                         "not applied (as in the original)")
-    if scene.script not in legacy_scripts.FIXES_CODIM and any(p.kind != "tet" for p in parts):
+    if scene.script not in FIXES_CODIM and any(p.kind != "tet" for p in parts):
         warnings.append(f"script {scene.script}: codim shapes are kept fixed "
                         "(ipcsim does not simulate codim shapes)")
 

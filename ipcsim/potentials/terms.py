@@ -21,7 +21,6 @@ from .friction import Friction
 from .incremental import IncrementalPotential, WeightedTerm
 from .inertia import Inertia
 from .mesh_contact import MeshContact
-from .penalty_contact import PenaltyMeshContact, PenaltyPlaneContact
 from .plane_contact import PlaneContact
 
 
@@ -58,6 +57,8 @@ def contact_terms(model) -> list[WeightedTerm]:
     planes = Planes.from_model(model) if model.needs_plane_contact else None
     mesh = model.needs_mesh_contact
     if model.contact_formulation == "penalty":
+        from .penalty_contact import PenaltyMeshContact, PenaltyPlaneContact  # the baseline
+
         k = model.penalty_stiffness
         return ([WeightedTerm(PenaltyPlaneContact(planes, model.dhat, k))] if planes else []) \
             + ([WeightedTerm(PenaltyMeshContact(model.dhat, k))] if mesh else [])
