@@ -278,8 +278,6 @@ def main(argv: list[str] | None = None) -> int:
         where = f"{exc.filename}: " if exc.filename else ""
         print(one_line(f"ipcsim: {where}{exc.strerror or exc}"), file=sys.stderr)
         return 2
-    finally:
-        resume_collector()
 
 
 def console() -> NoReturn:
@@ -294,7 +292,10 @@ def console() -> NoReturn:
     The collector is also paused while the modules load and the scene is built
     (``ipcsim.start_up``)."""
     pause_collector()
-    status = main()
+    try:
+        status = main()
+    finally:
+        resume_collector()  # where the command ended before a run's first step
     gc.freeze()
     sys.exit(status)
 

@@ -59,15 +59,20 @@ def test_run_writes_the_output_folder(drop_scene, tmp_path, capsys):
 
 def test_the_command_exits_with_mains_status_and_frozen_objects(monkeypatch):
     """``console`` (the ``ipcsim`` script, ``python -m ipcsim``) exits with what ``main``
-    returned, having frozen the objects left out of the exit's collector pass."""
+    returned, having frozen the objects left out of the exit's collector pass, and with
+    the collector running again even where ``main`` did not resume it."""
     import ipcsim.cli as cli
 
     calls = []
     monkeypatch.setattr(cli, "main", lambda: calls.append("main") or 3)
     monkeypatch.setattr(cli.gc, "freeze", lambda: calls.append("freeze"))
-    with pytest.raises(SystemExit) as exit_info:
-        cli.console()
-    assert exit_info.value.code == 3 and calls == ["main", "freeze"]
+    try:
+        with pytest.raises(SystemExit) as exit_info:
+            cli.console()
+        assert exit_info.value.code == 3 and calls[0] == "main" and calls[-1] == "freeze"
+        assert cli.gc.isenabled()
+    finally:
+        cli.gc.enable()
 
 
 def _console_with(monkeypatch, argv, seen: dict):
