@@ -1,0 +1,60 @@
+"""ipcsim/start_up.py: the cycle collector paused while the ``ipcsim`` process starts."""
+
+from __future__ import annotations
+
+import gc
+import weakref
+
+from ipcsim import start_up
+
+
+class _Node:
+    pass
+
+
+def test_a_small_start_is_frozen_without_a_collection(monkeypatch):
+    calls = []
+    monkeypatch.setattr(gc, "collect", lambda *args: calls.append("collect") or 0)
+    monkeypatch.setattr(gc, "freeze", lambda: calls.append("freeze"))
+    try:
+        start_up.pause_collector()
+        assert not gc.isenabled()
+        start_up.resume_collector()
+        assert gc.isenabled() and calls == ["freeze"]
+        start_up.resume_collector()  # a second resume does nothing
+        assert calls == ["freeze"]
+    finally:
+        gc.enable()
+
+
+def test_a_large_start_is_collected_before_it_is_frozen():
+    """Garbage cycles made during a start that loaded more than ipcsim (numba compiling)
+    are freed, not frozen for the rest of the run; a small start's are frozen."""
+    for extra, freed in ((start_up.COLLECT_ABOVE + 1, True), (0, False)):
+        try:
+            start_up.pause_collector()
+            cycle = _Node()
+            cycle.itself = cycle
+            gone = weakref.ref(cycle)
+            del cycle
+            kept = [[] for _ in range(extra)]
+            start_up.resume_collector()
+            gc.collect()  # a frozen object outlives even a full collection
+            assert (gone() is None) == freed and gc.isenabled()
+            del kept
+        finally:
+            gc.enable()
+            gc.unfreeze()  # give the test session's objects back to the collector
+
+
+def test_nothing_is_resumed_that_was_not_paused(monkeypatch):
+    """Code that turned the collector off itself keeps it off."""
+    calls = []
+    monkeypatch.setattr(gc, "freeze", lambda: calls.append("freeze"))
+    gc.disable()
+    try:
+        start_up.pause_collector()
+        start_up.resume_collector()
+        assert not gc.isenabled() and calls == []
+    finally:
+        gc.enable()
