@@ -4,8 +4,9 @@ Loading numpy and ipcsim's modules makes some 40,000 container objects that live
 a few hundred that are garbage, yet the collector's passes over them took 10–14 ms of a
 tiny scene's 0.4 s run (docs/benchmarks.md, "The collector paused while the process
 starts"). So ``console`` pauses it before its first import (:func:`pause_collector`); a run resumes it before its
-first step, any other command before it begins its work, and ``console`` once ``main``
-returns or raises, wherever it stopped (:func:`resume_collector`). Code that calls
+first step, any other command before it begins its work, ``kernels/jit.py`` before numba
+loads (its compiler makes garbage cycles by the hundred thousand), and ``console`` once
+``main`` returns or raises, wherever it stopped (:func:`resume_collector`). Code that calls
 ``ipcsim.cli.main`` or ``ipcsim.run`` itself is never paused.
 """
 

@@ -58,3 +58,20 @@ def test_nothing_is_resumed_that_was_not_paused(monkeypatch):
         assert not gc.isenabled() and calls == []
     finally:
         gc.enable()
+
+
+def test_loading_numba_ends_the_pause(monkeypatch):
+    """numba's compiler makes garbage cycles by the hundred thousand: the pause ends before
+    numba loads (a kernel without a compiled match, a first parallel run)."""
+    from ipcsim.kernels import compiling, jit, threads
+
+    monkeypatch.setattr(jit, "_numba", None)  # as in a process that has not loaded it
+    monkeypatch.setattr(compiling, "listen", lambda numba: None)  # set up once already
+    monkeypatch.setattr(threads, "choose_layer", lambda numba: None)
+    monkeypatch.setattr(gc, "freeze", lambda: None)  # leave the test session collectable
+    try:
+        start_up.pause_collector()
+        assert not gc.isenabled()
+        assert jit.numba_module().__name__ == "numba" and gc.isenabled()
+    finally:
+        gc.enable()

@@ -34,6 +34,11 @@ def numba_module():
     """numba, imported on first need, with the threading layer and the compile clock set."""
     global _numba
     if _numba is None:
+        from ..start_up import resume_collector
+
+        # numba's compiler makes garbage cycles by the hundred thousand: the start-up
+        # pause of the collector (start_up.py) ends here, before numba loads
+        resume_collector()
         import numba
 
         from .compiling import listen
