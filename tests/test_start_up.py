@@ -66,6 +66,7 @@ def test_loading_numba_ends_the_pause(monkeypatch):
     from ipcsim.kernels import compiling, jit, threads
 
     monkeypatch.setattr(jit, "_numba", None)  # as in a process that has not loaded it
+    monkeypatch.setattr(jit, "_before_loading", [])
     monkeypatch.setattr(compiling, "listen", lambda numba: None)  # set up once already
     monkeypatch.setattr(threads, "choose_layer", lambda numba: None)
     monkeypatch.setattr(gc, "freeze", lambda: None)  # leave the test session collectable

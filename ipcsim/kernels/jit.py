@@ -28,17 +28,21 @@ def prange(*args):
 
 
 _numba = None
+_before_loading = []  # what before_numba_loads was given, called once before numba loads
+
+
+def before_numba_loads(callback) -> None:
+    """Call ``callback()`` just before this process imports numba; nothing if it has."""
+    if _numba is None:
+        _before_loading.append(callback)
 
 
 def numba_module():
     """numba, imported on first need, with the threading layer and the compile clock set."""
     global _numba
     if _numba is None:
-        from ..start_up import resume_collector
-
-        # numba's compiler makes garbage cycles by the hundred thousand: the start-up
-        # pause of the collector (start_up.py) ends here, before numba loads
-        resume_collector()
+        while _before_loading:
+            _before_loading.pop(0)()
         import numba
 
         from .compiling import listen
