@@ -22,7 +22,7 @@ from typing import NoReturn
 # measured no slower on one BLAS thread (docs/benchmarks.md, "Another machine, ...").
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-from . import __version__  # noqa: E402  (numpy loads in main, after the BLAS setting)
+from . import __version__  # noqa: E402  (numpy loads later, after the BLAS setting)
 from .errors import IpcsimError, SceneError, excerpt, one_line  # noqa: E402
 from .start_up import pause_collector, resume_collector  # noqa: E402
 

@@ -3,11 +3,12 @@
 Loading numpy and ipcsim's modules makes some 40,000 container objects that live on and
 a few hundred that are garbage, yet the collector's passes over them took 10–14 ms of a
 tiny scene's 0.4 s run (docs/benchmarks.md, "The collector paused while the process
-starts"). So ``console`` pauses it before its first import (:func:`pause_collector`); a run resumes it before its
-first step, any other command before it begins its work, the kernels just before numba
-loads (its compiler makes garbage cycles by the hundred thousand), and ``console`` once
-``main`` returns or raises, wherever it stopped (:func:`resume_collector`). Code that calls
-``ipcsim.cli.main`` or ``ipcsim.run`` itself is never paused.
+starts"). So ``console`` pauses it before its first import (:func:`pause_collector`). A
+run resumes it before its first step, any other command before it begins its work, the
+kernels just before numba loads (its compiler makes garbage cycles by the hundred
+thousand), and ``console`` once ``main`` returns or raises, wherever it stopped
+(:func:`resume_collector`). Code that calls ``ipcsim.cli.main`` or ``ipcsim.run``
+itself is never paused.
 """
 
 from __future__ import annotations
@@ -27,10 +28,10 @@ def pause_collector() -> None:
     """Stop automatic collections, if they run, until :func:`resume_collector`."""
     global _paused
     if gc.isenabled():
-        from .kernels.jit import before_numba_loads
-
         gc.disable()
         _paused = True
+        from .kernels.jit import before_numba_loads  # loads numpy: after the pause begins
+
         # numba's compiler makes garbage cycles by the hundred thousand: not while paused
         before_numba_loads(resume_collector)
 

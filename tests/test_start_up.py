@@ -30,7 +30,7 @@ def test_a_small_start_is_frozen_without_a_collection(monkeypatch):
 def test_a_large_start_is_collected_before_it_is_frozen():
     """Garbage cycles made during a start that loaded more than ipcsim (numba compiling)
     are freed, not frozen for the rest of the run; a small start's are frozen."""
-    for extra, freed in ((start_up.COLLECT_ABOVE + 1, True), (0, False)):
+    for extra, freed in ((2 * start_up.COLLECT_ABOVE, True), (0, False)):
         try:
             start_up.pause_collector()
             cycle = _Node()

@@ -41,8 +41,9 @@ def numba_module():
     """numba, imported on first need, with the threading layer and the compile clock set."""
     global _numba
     if _numba is None:
-        while _before_loading:
-            _before_loading.pop(0)()
+        for callback in _before_loading:
+            callback()
+        _before_loading.clear()
         import numba
 
         from .compiling import listen
