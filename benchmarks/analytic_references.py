@@ -24,8 +24,6 @@ are those of the measured steps (building the model and loading kernels excluded
 
 from __future__ import annotations
 
-import dataclasses
-
 import argparse
 import csv
 import tempfile
@@ -33,6 +31,7 @@ import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+import msgspec
 import numpy as np
 import scipy.linalg
 from scipy.optimize import brentq
@@ -314,7 +313,7 @@ def oscillation(folder: Path, steps: int, amplitude: float = 1e-3) -> tuple[list
                           f"timeIntegration {integrator}\ntol 1\n1e-7\n")
         omega, phi = _first_mode(sim)
         v0 = omega * amplitude / np.abs(phi).max() * phi  # rest shape: a₀ = 0 holds
-        sim.state = dataclasses.replace(sim.state, v=v0)
+        sim.state = msgspec.structs.replace(sim.state, v=v0)
         energy = [0.5 * float(np.einsum("i,ij,ij->", sim.model.mass, sim.state.v, sim.state.v))]
         wall = _run(sim, steps, lambda s, row: energy.append(row["kinetic_energy"]
                                                               + row["elastic_energy"]))

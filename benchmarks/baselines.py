@@ -22,7 +22,6 @@ with ``--only``, unless ``--merge``: then only this run's rows replace the saved
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import io
 import json
 import signal
@@ -30,6 +29,8 @@ import sys
 import time
 from contextlib import contextmanager
 from pathlib import Path
+
+import msgspec
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLES = REPO.parent / "shared" / "ipc-examples-full" / "input"
@@ -48,12 +49,12 @@ def baseline_scene(scene: Path, method: str, out: Path) -> Path:
 
     spec = load_scene(scene)
     if method == "IPC":
-        spec = dataclasses.replace(spec, constraint_solver="interiorPoint")
+        spec = msgspec.structs.replace(spec, constraint_solver="interiorPoint")
     elif spec.constraint_solver in METHODS:
-        spec = dataclasses.replace(spec, constraint_solver=method)
+        spec = msgspec.structs.replace(spec, constraint_solver=method)
     else:
         dhat = build_model(spec).dhat
-        spec = dataclasses.replace(spec, constraint_solver=method, constraint_type="graphics",
+        spec = msgspec.structs.replace(spec, constraint_solver=method, constraint_type="graphics",
                                    constraint_offset=dhat, active_set_convergence=True,
                                    warm_start=max(spec.warm_start, 1))
     out.mkdir(parents=True, exist_ok=True)

@@ -14,9 +14,9 @@ iterations); 1e5 is in between.
 
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
+import msgspec
 import numpy as np
 
 from ipcsim.model.builder import build_model
@@ -44,5 +44,5 @@ def penalty_scene(scene: Path, factor: float) -> Path:
     after c) and return its path."""
     spec = load_scene(scene)
     k = penalty_stiffness(build_model(spec), factor)
-    spec = dataclasses.replace(spec, contact_formulation="penalty", penalty_stiffness=k)
+    spec = msgspec.structs.replace(spec, contact_formulation="penalty", penalty_stiffness=k)
     return save_scene(spec, scene.with_name(f"{scene.stem}_penalty_{factor:.0e}.toml"))

@@ -15,7 +15,8 @@ The phases, nested as they run:
     interpreter start and exit   the whole process less the child's own clock
     imports                      every module loaded, before the run or during it (numpy,
                                  ipcsim's, the standard library's); of which: making
-                                 ipcsim's dataclasses
+                                 dataclasses (an install whose records were dataclasses;
+                                 ipcsim's are msgspec Structs now, and a run makes none)
     main                         ``cli.main``:
       build                        scene, model and simulation (``runner._build``)
       output                       the folder, logs, frame 0, checkpoint 0 (``_open_output``)

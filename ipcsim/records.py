@@ -1,38 +1,33 @@
-"""A new frozen record from an old one with some fields changed, cheaply.
+"""Records whose equality is their meaning.
 
-A time step makes its values anew rather than writing to them (a new ``StepContext``
-when the collision set changes, a scaled Hessian, the next κ): tens of such copies a
-Newton iteration. ``dataclasses.replace`` runs the class's ``__init__`` with every field
-(3–5 µs a copy); ``replaced`` copies the instance dictionary (under 1 µs). It is the
-same copy for a dataclass without ``__post_init__``, slots or fields left out of
-``__init__``, and falls back to ``dataclasses.replace`` for any other.
+ipcsim's values are msgspec ``Struct``s, most of them frozen: made once, replaced
+(``msgspec.structs.replace``) rather than written to. A frozen Struct compares and hashes
+all its fields. A value that also records where it was written (a scene line, a path
+as typed, the reader's warnings) compares and hashes by what it means instead: a
+``ByMeaning`` record leaves its ``provenance`` fields out. Two scenes that say the same
+in different files are equal.
 """
 
 from __future__ import annotations
 
-import dataclasses
-
-_FIELDS: dict[type, frozenset | None] = {}  # class -> its init fields, None: use replace
+from typing import ClassVar
 
 
-def _plain_fields(cls: type) -> frozenset | None:
-    """The names ``replaced`` may change on ``cls``, or None where it must not copy."""
-    plain = (dataclasses.is_dataclass(cls) and not hasattr(cls, "__post_init__")
-             and not hasattr(cls, "__slots__")
-             and all(f.init for f in dataclasses.fields(cls)))  # replace resets the rest
-    return frozenset(f.name for f in dataclasses.fields(cls)) if plain else None
+class ByMeaning:
+    """Equality and hash over the fields not named in ``provenance`` (a mix-in of frozen
+    Structs: ``class S(ByMeaning, Struct, frozen=True)``)."""
 
+    __slots__ = ()
+    provenance: ClassVar[tuple[str, ...]] = ()
 
-def replaced(record, **changes):
-    """``dataclasses.replace(record, **changes)``: the same result, a fraction of its cost."""
-    cls = type(record)
-    if cls not in _FIELDS:
-        _FIELDS[cls] = _plain_fields(cls)
-    names = _FIELDS[cls]
-    if names is None or not changes.keys() <= names:
-        return dataclasses.replace(record, **changes)  # its checks and errors
-    new = object.__new__(cls)
-    state = new.__dict__
-    state.update(record.__dict__)
-    state.update(changes)
-    return new
+    def _meaning(self) -> tuple:
+        return tuple(getattr(self, name) for name in self.__struct_fields__
+                     if name not in self.provenance)
+
+    def __eq__(self, other):
+        if type(other) is not type(self):
+            return NotImplemented
+        return self._meaning() == other._meaning()
+
+    def __hash__(self):
+        return hash(self._meaning())

@@ -22,9 +22,9 @@ import sys
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path
 
+from msgspec import Struct
 import numpy as np
 
 from .errors import (OutputError, RunFailed, RunInterrupted, SceneError, SolverError,
@@ -53,8 +53,7 @@ def _to_stderr(message: str) -> None:
     print(message, file=sys.stderr, flush=True)
 
 
-@dataclass(frozen=True)
-class Reporter:
+class Reporter(Struct, frozen=True):
     """Where a run's messages go. The defaults (the Python API's) say nothing but
     warnings, which go to stderr; ``ipcsim run`` prints everything.
 
@@ -72,8 +71,7 @@ class Reporter:
     command: tuple[str, ...] | None = None
 
 
-@dataclass(frozen=True, eq=False)
-class RunResult:
+class RunResult(Struct, frozen=True, eq=False):
     """What a run did. ``steps_done`` is the run's last step (over all its invocations);
     ``first_step`` where this call began (0, or the checkpoint's step when resumed);
     ``newton_iterations`` and ``wall_s`` (s) are this call's; ``state`` the final
@@ -86,7 +84,7 @@ class RunResult:
     newton_iterations: int
     steps_not_converged: int
     wall_s: float
-    state: object = field(repr=False)
+    state: object
 
 
 def frame_interval_for(scene) -> int:
@@ -154,8 +152,7 @@ def build(spec, warn=_to_stderr):
                          f"({excerpt(exc, 120)}); use linearSolver auto") from None
 
 
-@dataclass
-class _Run:
+class _Run(Struct):
     """One call of :func:`run`: what was built and checked before writing."""
 
     scene: object

@@ -16,8 +16,9 @@ from __future__ import annotations
 
 import time
 import warnings
-from dataclasses import dataclass
 
+from msgspec import Struct
+from msgspec.structs import replace
 import numpy as np
 
 from .contact.collisions import build_collisions
@@ -33,7 +34,6 @@ from .potentials.fused import available as fused_kernels_available
 from .potentials.fused import newton_available
 from .potentials.objective import StepObjective
 from .potentials.terms import incremental_potential
-from .records import replaced
 from .solver.integrator import fix_kinematic_velocities, kinetic_energy, make_integrator
 from .solver.linear import DENSE_UP_TO, DENSE_WITH_COMPILED_NEWTON_UP_TO, make_solver
 from .solver.newton import NewtonResult, NewtonSolver
@@ -46,8 +46,7 @@ def _read_only(a: np.ndarray) -> np.ndarray:
     return view
 
 
-@dataclass(frozen=True, eq=False)
-class State:
+class State(Struct, frozen=True, eq=False):
     """Everything the next step needs: positions, velocities, accelerations (n, 3), the
     step counter (the boundary conditions' clock, t = step·h), κ, and the previous step's
     non-inertial displacement (warm starts 3 and 4). Replaced, never modified, by a step.
@@ -75,8 +74,7 @@ class State:
         return _read_only(self.v)
 
 
-@dataclass(frozen=True, eq=False)
-class StepReport:
+class StepReport(Struct, frozen=True, eq=False):
     """What one step did: ``row`` is its steps.csv row (docs/output-format.md: step,
     time, newton_iterations, converged, contacts, energies, wall times ...), ``newton``
     its newton.csv rows, ``result`` the Newton solver's own result."""
@@ -209,7 +207,7 @@ class Simulation:
             damping = damping.lag(x, self.potential.term("elasticity").hessian(x))
         ctx = StepContext(x_start=x, x_tilde=x_tilde, acceleration=accel, kinematic=kinematic,
                           target=target, dhat=model.dhat, damping=damping)
-        stiffness = replaced(self.stiffness, kappa=state.kappa).new_step()
+        stiffness = replace(self.stiffness, kappa=state.kappa).new_step()
         objective = StepObjective(self.potential, ctx, self.contact, stiffness, self.timer,
                                   pullable=self._pullable, small_step=self._pull_step,
                                   collisions_at=self._collisions_at)

@@ -25,17 +25,15 @@ def pulls_end_by_placement(monkeypatch) -> list:
     """Pulls of prescribed vertices end only in their tail, where ``StepObjective`` places
     the vertices on their targets (never at 99.9 % done); returns what each placement
     attempt gave (the placed x, or None where the move was not free)."""
-    import dataclasses
-
     import ipcsim.potentials.objective as objective_module
     from ipcsim.potentials.boundary_pull import PullSchedule
     from ipcsim.potentials.objective import StepObjective
 
-    @dataclasses.dataclass(frozen=True)
-    class EndsOnlyInItsTail(PullSchedule):
+    class EndsOnlyInItsTail(PullSchedule, frozen=True):
         done: float = 1.0
 
     monkeypatch.setattr(objective_module, "PullSchedule", EndsOnlyInItsTail)
+    monkeypatch.setattr(objective_module, "PULL_DONE", 1.0)  # the compiled iterations'
     placed = []
     place = StepObjective._place_pulled
     monkeypatch.setattr(StepObjective, "_place_pulled",

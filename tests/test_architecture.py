@@ -2,9 +2,9 @@
 
 * only ``ipcsim/kernels/`` imports numba, and kernels import nothing of ipcsim outside it;
 * the solver imports nothing of contact; the scene parser imports no numerics and nothing
-  of the rest of ipcsim but ``errors`` and ``atomic`` (the atomic writer); ``scene/`` and
-  ``io/`` do not lean on each other;
-* the terms of the incremental potential are frozen dataclasses;
+  of the rest of ipcsim but ``errors``, ``atomic`` (the atomic writer) and ``records``;
+  ``scene/`` and ``io/`` do not lean on each other;
+* the terms of the incremental potential are frozen records (msgspec Structs);
 * Newton takes an objective, a start and a tolerance; no function takes more than eight
   parameters (numba kernels aside) or runs longer than about 80 lines.
 """
@@ -12,12 +12,12 @@
 from __future__ import annotations
 
 import ast
-import dataclasses
 import importlib
 import inspect
 import pkgutil
 from pathlib import Path
 
+import msgspec
 import pytest
 
 import ipcsim
@@ -93,7 +93,7 @@ def test_the_scene_parser_imports_no_numerics():
         if n.split(".")[0] in numerics:
             return True
         return n.startswith("ipcsim") and not any(
-            _within(n, ok) for ok in ("scene", "errors", "atomic"))
+            _within(n, ok) for ok in ("scene", "errors", "atomic", "records"))
 
     assert _offenders(bad) == []
 
@@ -113,11 +113,11 @@ def _term_classes():
                 yield cls
 
 
-def test_terms_are_frozen_dataclasses():
+def test_terms_are_frozen_records():
     terms = list(_term_classes())
     assert len(terms) >= 8  # inertia, body force, elasticity, damping, contact, friction, ...
     for cls in terms:
-        assert dataclasses.is_dataclass(cls) and cls.__dataclass_params__.frozen, cls
+        assert issubclass(cls, msgspec.Struct) and cls.__struct_config__.frozen, cls
 
 
 def test_newton_takes_an_objective_a_start_and_a_tolerance():

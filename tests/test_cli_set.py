@@ -4,10 +4,10 @@ exactly the overridden values; a bad key or value exits 2 naming it and writes n
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import shutil
 
+import msgspec
 import pytest
 
 from ipcsim.cli import main
@@ -28,9 +28,9 @@ def test_set_changes_exactly_those_values(scene, tmp_path, capsys):
     assert main(["run", str(scene), "-o", str(out), "-q", "--steps", "3", *sets]) == 0
     resolved = load_scene(out / "scene.toml")
     base = load_scene(scene)
-    material = dataclasses.replace(base.shapes[0], material=dataclasses.replace(
+    material = msgspec.structs.replace(base.shapes[0], material=msgspec.structs.replace(
         resolved.shapes[0].material, youngs_modulus=2e5))
-    assert resolved == dataclasses.replace(base, dt=0.01, dhat=1e-3, shapes=(material,))
+    assert resolved == msgspec.structs.replace(base, dt=0.01, dhat=1e-3, shapes=(material,))
     assert resolved.shapes[0].material.density == base.density
     assert "# overrides of the scene file's values: time.dt = 0.01" in \
         (out / "scene.toml").read_text()

@@ -18,8 +18,7 @@ closed surface approached from outside and wrong for an open one approached from
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
+from msgspec import Struct
 import numpy as np
 import scipy.sparse as sp
 
@@ -32,8 +31,7 @@ from ..kernels import constraints as _kc
 KINDS = {"volume": _kc.VOLUME, "gap": _kc.GAP, "Verschoor": _kc.VERSCHOOR}
 
 
-@dataclass(frozen=True, eq=False)
-class ActiveSet:
+class ActiveSet(Struct, frozen=True, eq=False):
     """Pairs kept apart: pt (k, 4), ee (j, 4) stencils with their signs and contact
     weights (Verschoor; zeros otherwise), and (vertex, plane) rows."""
 
@@ -55,8 +53,7 @@ class ActiveSet:
         return len(self.pt) + len(self.ee) + len(self.planes)
 
 
-@dataclass(frozen=True, eq=False)
-class ConstraintGeometry:
+class ConstraintGeometry(Struct, frozen=True, eq=False):
     """What the constraints are between: the collision mesh (None without mesh contact),
     the planes (None without), the constraint kind and the offset."""
 
@@ -96,8 +93,7 @@ def _colliding(geo: ConstraintGeometry, x0, x1, pairs, n_pt):
     return (toi < 1.0) | (end2 < geo.eta ** 2), toi
 
 
-@dataclass(frozen=True)
-class Stencils:
+class Stencils(Struct, frozen=True):
     """PT and EE stencils, as ``pair_distances`` reads them."""
 
     pt: np.ndarray
@@ -177,8 +173,7 @@ def _signs_and_weights(geo, x_start, x_end, pairs, toi, is_ee):
     return np.where(c < 0.0, -1.0, 1.0), weights
 
 
-@dataclass(frozen=True, eq=False)
-class Linearised:
+class Linearised(Struct, frozen=True, eq=False):
     """Rows A Δx ≥ lower over the free DOFs (A as CSC), and c_s(x) of every row."""
 
     A: sp.csc_matrix

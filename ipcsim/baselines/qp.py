@@ -9,8 +9,7 @@ original); "maximum iterations reached" and "solved inaccurate" are taken as sol
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
+from msgspec import Struct
 import numpy as np
 import scipy.sparse as sp
 
@@ -29,8 +28,7 @@ def require_osqp():
     return osqp
 
 
-@dataclass(frozen=True, eq=False)
-class QPResult:
+class QPResult(Struct, frozen=True, eq=False):
     dx: np.ndarray  # (n,) the minimiser (zeros after a failure)
     dual: np.ndarray  # (m,) multipliers of the rows (OSQP's sign: ≤ 0 for ≥ rows)
     status: str

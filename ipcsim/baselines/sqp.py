@@ -29,9 +29,8 @@ original does). ``intersections(x)`` tells whether a state intersects.
 
 from __future__ import annotations
 
-import dataclasses
-from dataclasses import dataclass, field
-
+import msgspec
+from msgspec import Struct, field
 import numpy as np
 
 from ..contact.collisions import pair_distances
@@ -44,8 +43,7 @@ from .active_set import ActiveSet, ConstraintGeometry, Stencils, grow, linearise
 from .qp import require_osqp, solve_qp
 
 
-@dataclass
-class _Run:
+class _Run(Struct):
     """The running record of one step."""
 
     x_start: np.ndarray  # x_n
@@ -93,7 +91,7 @@ class ConstrainedSolver:
                 converged = True
                 break
         final = objective.evaluate(x, 0)
-        final = dataclasses.replace(final, contacts=self._contacts(x, run.active))
+        final = msgspec.structs.replace(final, contacts=self._contacts(x, run.active))
         return NewtonResult(x=x, final=final, iterations=len(run.rows), converged=converged,
                             hit_iteration_cap=not converged, min_alpha=run.min_alpha,
                             rows=tuple(run.rows))

@@ -16,8 +16,7 @@ otherwise is the whole direction swept.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
+from msgspec import Struct
 import numpy as np
 
 from ..kernels import ccd as _ccd
@@ -41,8 +40,7 @@ def collision_free_step(mesh: CollisionMesh, x0, x1, *,
     return _ccd.ccd_max_step(x0, x1, pt_pairs, ee_pairs, min_gap_fraction, max_iterations)
 
 
-@dataclass(frozen=True, eq=False)
-class StepBound:
+class StepBound(Struct, frozen=True, eq=False):
     """A safe step fraction along p and every pair that comes within d̂ on [x, x + αp]
     (the pairs the line search's energies must include)."""
 

@@ -9,9 +9,10 @@ body and a ``meshCO`` obstacle remain, as in the original.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from functools import cached_property
 
+from msgspec import Struct
+from msgspec.structs import force_setattr
 import numpy as np
 
 from ..kernels.broad_phase import primitive_tags
@@ -26,8 +27,7 @@ def _index_array(a, cols: int, name: str) -> np.ndarray:
     return a
 
 
-@dataclass(frozen=True, eq=False)
-class CollisionMesh:
+class CollisionMesh(Struct, frozen=True, eq=False, dict=True):
     """Surface primitives in global vertex numbers.
 
     vertices (v,) points that can collide; edges (e, 2); triangles (t, 3); body (n,) the
@@ -42,30 +42,32 @@ class CollisionMesh:
     kinematic: np.ndarray
     self_collision: bool = True
     rest: np.ndarray | None = None
-    # [body, all kinematic] of every point, edge and triangle (the broad phase's filters)
-    tags: tuple[np.ndarray, np.ndarray, np.ndarray] = field(init=False, repr=False)
 
     def __post_init__(self):
         # writable C-contiguous copies: numba compiles a second version of every kernel
         # for read-only arrays (the model's are read-only)
         verts = np.array(np.asarray(self.vertices).reshape(-1), dtype=np.int64)
-        object.__setattr__(self, "vertices", verts)
-        object.__setattr__(self, "edges", np.array(_index_array(self.edges, 2, "edges")))
-        object.__setattr__(self, "triangles",
+        force_setattr(self, "vertices", verts)
+        force_setattr(self, "edges", np.array(_index_array(self.edges, 2, "edges")))
+        force_setattr(self, "triangles",
                            np.array(_index_array(self.triangles, 3, "triangles")))
-        object.__setattr__(self, "body", np.array(self.body, dtype=np.int64))
-        object.__setattr__(self, "kinematic", np.array(self.kinematic, dtype=np.bool_))
+        force_setattr(self, "body", np.array(self.body, dtype=np.int64))
+        force_setattr(self, "kinematic", np.array(self.kinematic, dtype=np.bool_))
         if self.rest is not None:
-            object.__setattr__(self, "rest", np.array(self.rest, dtype=np.float64))
+            force_setattr(self, "rest", np.array(self.rest, dtype=np.float64))
         n = len(self.body)
         if self.kinematic.shape != (n,):
             raise ValueError("body and kinematic need one entry per vertex")
         for prims in (self.vertices, self.edges, self.triangles):
             if prims.size and (prims.min() < 0 or prims.max() >= n):
                 raise ValueError("vertex index out of range")
-        object.__setattr__(self, "tags", tuple(
-            primitive_tags(prims, self.body, self.kinematic)
-            for prims in (self.vertices.reshape(-1, 1), self.edges, self.triangles)))
+
+    @cached_property
+    def tags(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """[body, all kinematic] of every point, edge and triangle (the broad phase's
+        filters)."""
+        return tuple(primitive_tags(prims, self.body, self.kinematic)
+                     for prims in (self.vertices.reshape(-1, 1), self.edges, self.triangles))
 
     @cached_property
     def kernel_arrays(self) -> tuple:

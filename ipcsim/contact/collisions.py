@@ -12,9 +12,9 @@ Toolkit's merged, weighted set: pairs farther than d̂ contribute nothing.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from functools import cached_property
 
+from msgspec import Struct
 import numpy as np
 
 from ..kernels.broad_phase import swept_pairs_within
@@ -24,8 +24,7 @@ from .candidates import find_candidates
 from .collision_mesh import CollisionMesh
 
 
-@dataclass(frozen=True, eq=False)
-class PairDistances:
+class PairDistances(Struct, frozen=True, eq=False):
     """Closest-feature type (ipctk's enum codes) and squared distance of every pair."""
 
     pt_type: np.ndarray  # (k,) int64
@@ -34,8 +33,7 @@ class PairDistances:
     ee_d2: np.ndarray  # (j,)
 
 
-@dataclass(frozen=True)
-class MeshContactCount:
+class MeshContactCount(Struct, frozen=True):
     """Active mesh contacts at one x, by kind, and the closest distance."""
 
     point_triangle: int  # active pairs: d² < d̂²
@@ -43,8 +41,7 @@ class MeshContactCount:
     min_distance: float  # smallest distance over the candidates (inf without any)
 
 
-@dataclass(frozen=True, eq=False)
-class Collisions:
+class Collisions(Struct, frozen=True, eq=False, dict=True):
     """Candidate pairs (rows of global vertex numbers): pt (k, 4) = (p, t0, t1, t2),
     ee (j, 4) = (ea0, ea1, eb0, eb1), with ee_eps_x (j,) their mollifier thresholds, the
     distances at the positions they were found at (None for a swept set) and each pair's

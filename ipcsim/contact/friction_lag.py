@@ -14,8 +14,7 @@ Tangential displacements are then measured from ``x_start`` (the start of the st
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
+from msgspec import Struct
 import numpy as np
 
 from ..kernels import friction as kf
@@ -23,8 +22,7 @@ from .collisions import Collisions
 from .planes import Planes
 
 
-@dataclass(frozen=True, eq=False)
-class FrictionLag:
+class FrictionLag(Struct, frozen=True, eq=False):
     """Frozen friction data of k pairs: verts (k, 4) stencil vertices (−1 unused),
     coeffs (k, 4) closest-point weights, basis (k, 3, 2) tangent bases, weight (k,) μλ,
     offsets (k + 1,) Hessian triplet offsets; x_start (n, 3) the reference positions."""

@@ -16,8 +16,7 @@ Semantics
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
+from msgspec import Struct
 import numpy as np
 
 from ipcsim.kernels import intersection as _k
@@ -117,15 +116,14 @@ def count_inverted_tets(x, tets) -> int:
     return int(np.count_nonzero(signs <= 0))
 
 
-@dataclass(frozen=True, eq=False)
-class FrameCheck:
+class FrameCheck(Struct, frozen=True, eq=False):
     """What ``check_frame`` found in one frame (``ok`` when nothing is wrong)."""
 
     n_intersections: int  # intersecting (edge, triangle) pairs
-    first_pairs: np.ndarray = field(repr=False)  # (<= max_pairs, 2) of them
+    first_pairs: np.ndarray  # (<= max_pairs, 2) of them
     n_coplanar: int  # how many of those are coplanar overlaps
     n_inverted: int  # tets with orientation <= 0
-    first_inverted: np.ndarray = field(repr=False)
+    first_inverted: np.ndarray
     min_signed_volume: float  # float, smallest det/6 over tets (inf without tets)
     n_nonfinite: int = 0  # vertices with NaN/inf coordinates; other counts are then -1
 

@@ -8,15 +8,14 @@ prescribed; planes never push them).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
+from msgspec import Struct
+from msgspec.structs import force_setattr
 import numpy as np
 
 from ..kernels.plane_contact import plane_active_count_and_min_distance
 
 
-@dataclass(frozen=True, eq=False)
-class Planes:
+class Planes(Struct, frozen=True, eq=False):
     """The contact planes and the vertices tested against them, with each plane's μ."""
 
     vertices: np.ndarray  # (v,) int64, the vertices tested against every plane
@@ -27,10 +26,10 @@ class Planes:
     def __post_init__(self):
         # writable copies: numba compiles a second version of every kernel for the
         # model's read-only arrays
-        object.__setattr__(self, "vertices", np.array(self.vertices, dtype=np.int64))
-        object.__setattr__(self, "origins", np.array(self.origins, dtype=float).reshape(-1, 3))
-        object.__setattr__(self, "normals", np.array(self.normals, dtype=float).reshape(-1, 3))
-        object.__setattr__(self, "friction", np.array(self.friction, dtype=float).reshape(-1))
+        force_setattr(self, "vertices", np.array(self.vertices, dtype=np.int64))
+        force_setattr(self, "origins", np.array(self.origins, dtype=float).reshape(-1, 3))
+        force_setattr(self, "normals", np.array(self.normals, dtype=float).reshape(-1, 3))
+        force_setattr(self, "friction", np.array(self.friction, dtype=float).reshape(-1))
 
     @staticmethod
     def from_model(model) -> "Planes":

@@ -7,8 +7,7 @@ and adaptive κ, or the penalty baseline (no CCD, no κ).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
+from msgspec import Struct
 import numpy as np
 
 from .collision_mesh import CollisionMesh
@@ -16,8 +15,7 @@ from .collisions import Collisions
 from .planes import Planes
 
 
-@dataclass(frozen=True)
-class ContactCount:
+class ContactCount(Struct, frozen=True):
     """Active contacts (d² < d̂²) by kind and the smallest distance (signed for planes;
     inf when there is nothing to measure)."""
 
@@ -37,8 +35,7 @@ class ContactCount:
                 "contacts_total": self.total}
 
 
-@dataclass(frozen=True, eq=False)
-class ContactSetup:
+class ContactSetup(Struct, frozen=True, eq=False):
     """What a scene's contact needs at every step: the collision mesh, the planes, d̂,
     mesh friction and how steps and κ are handled."""
 

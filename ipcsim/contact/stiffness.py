@@ -13,13 +13,13 @@ potential, both over free DOFs: κ balances the two forces. During Newton, κ do
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
+from msgspec import Struct
+from msgspec.structs import replace
 import numpy as np
 
 from ..kernels.barrier import (balanced_stiffness, barrier_second_derivative,
                                stiffness_doubles)
-from ..records import replaced
 
 
 def kappa_bounds(bbox_diagonal: float, dhat: float, mean_mass: float,
@@ -45,8 +45,7 @@ def should_double(prev_min_d_sq: float, min_d_sq: float, eps_sq: float) -> bool:
     return bool(stiffness_doubles(float(prev_min_d_sq), float(min_d_sq), float(eps_sq)))
 
 
-@dataclass(frozen=True)
-class BarrierStiffness:
+class BarrierStiffness(Struct, frozen=True):
     """κ and the state its adaptation carries through one time step.
 
     ``adaptive`` False: κ is the scene's fixed value. Otherwise κ is balanced once, at the
@@ -63,7 +62,7 @@ class BarrierStiffness:
 
     def new_step(self) -> "BarrierStiffness":
         """The state at the start of a step: κ carried over, nothing balanced yet."""
-        return replaced(self, balanced=not self.adaptive, min_distance_sq=math.inf)
+        return replace(self, balanced=not self.adaptive, min_distance_sq=math.inf)
 
     def needs_balance(self, contacts: int) -> bool:
         return self.adaptive and contacts > 0 and not self.balanced
@@ -81,4 +80,4 @@ class BarrierStiffness:
         d_sq = min_distance * min_distance
         if should_double(self.min_distance_sq, d_sq, self.eps_sq):
             kappa = min(self.kappa_max, 2.0 * kappa)
-        return replaced(self, kappa=kappa, balanced=balanced, min_distance_sq=d_sq)
+        return replace(self, kappa=kappa, balanced=balanced, min_distance_sq=d_sq)

@@ -29,10 +29,10 @@ import hashlib
 import json
 import re
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
 
+from msgspec import Struct, field
 import numpy as np
 
 from ..errors import IpcsimError
@@ -54,8 +54,7 @@ class CompareError(IpcsimError):
     """The two folders cannot be compared (missing files or frames, other meshes)."""
 
 
-@dataclass
-class CompareResult:
+class CompareResult(Struct):
     steps: list[int] = field(default_factory=list)  # compared frame steps
     times: list[float] = field(default_factory=list)
     max_rel: list[float] = field(default_factory=list)  # per frame, / scene size
@@ -182,8 +181,7 @@ def mesh_signature(mesh) -> dict:
             "sha256": digest.hexdigest()}
 
 
-@dataclass
-class Reference:
+class Reference(Struct):
     """B as the comparison sees it, whatever it was read from: some frames' positions
     (optionally of only some of A's vertices) and the logged counts.
 

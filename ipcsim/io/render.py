@@ -15,9 +15,9 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass
 from pathlib import Path
 
+from msgspec import Struct
 import numpy as np
 
 from ..errors import IpcsimError
@@ -58,8 +58,7 @@ def body_rgb(body: int) -> tuple[int, int, int]:
     return tuple(int(c) for c in PALETTE[int(body) % len(PALETTE)])
 
 
-@dataclass
-class RenderOptions:
+class RenderOptions(Struct):
     every: int = 1
     frames: tuple[int | None, int | None] = (None, None)  # step range [a, b)
     gif: bool = False
@@ -84,8 +83,7 @@ def parse_frame_range(text: str) -> tuple[int | None, int | None]:
     return a, b
 
 
-@dataclass
-class RunFrames:
+class RunFrames(Struct):
     """The frames of one run: ``steps`` (sorted), their ``paths`` and ``times``."""
 
     folder: Path

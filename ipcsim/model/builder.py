@@ -15,11 +15,11 @@ Follows docs/ipc-scene-format.md §5.1 (assembly order):
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from dataclasses import dataclass, field
 from pathlib import Path
 
+import msgspec
+from msgspec import Struct, field
 import numpy as np
 
 from ..errors import MeshError, SceneError
@@ -34,8 +34,7 @@ SEQUENCE_EXT = {"tet": "msh", "surface": "obj", "segments": "seg", "points": "pt
 ENERGY_NAMES = {"NH": "neo-Hookean", "FCR": "fixed corotated"}
 
 
-@dataclass
-class _Part:
+class _Part(Struct):
     """One shape after loading and placement (local vertex indices)."""
 
     index: int
@@ -246,7 +245,7 @@ def _build_model(scene: SceneSpec) -> Model:
         nbc_time_range=scene.nbc_time_range, terms=(),
         constraint_solver=_constraint_solver(scene, warnings), warnings=tuple(warnings),
     )
-    return dataclasses.replace(model, terms=describe_terms(model, scene))
+    return msgspec.structs.replace(model, terms=describe_terms(model, scene))
 
 
 def _check_global_settings(scene: SceneSpec) -> None:
@@ -280,8 +279,7 @@ def _place_scene(scene: SceneSpec, placed: np.ndarray) -> tuple[np.ndarray, np.n
 # ----------------------------------------------------------------------------- motion
 
 
-@dataclass
-class _Motion:
+class _Motion(Struct):
     """What is prescribed: DBC and NBC sets, mesh sequences, the always-kinematic mask,
     the initial positions and velocities (a legacy script may set them; None: from the
     shapes' initVel)."""
@@ -397,8 +395,7 @@ def _elastic_shapes(all_parts, offsets, always) -> np.ndarray:
 # ----------------------------------------------------------------------------- tets, masses
 
 
-@dataclass
-class _Elastic:
+class _Elastic(Struct):
     """The tets of every elastic shape, in global vertex numbers, with their rest data."""
 
     tets: np.ndarray  # (m, 4) global vertex indices
@@ -430,8 +427,7 @@ def _elastic_tets(scene, all_parts, offsets, rest) -> _Elastic:
                     lame_parameters(mat[tet_shape, 1], mat[tet_shape, 2]), mass)
 
 
-@dataclass
-class _CollisionMesh:
+class _CollisionMesh(Struct):
     """The surface primitives that can collide, with the shape of each."""
 
     triangles: np.ndarray

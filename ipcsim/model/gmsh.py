@@ -21,15 +21,13 @@ then per block ``entityDim entityTag elementType numElementsInBlock`` and one
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
+from msgspec import Struct
 import numpy as np
 
 TETRAHEDRON = 4  # Gmsh's element type of the 4-node tetrahedron
 
 
-@dataclass(frozen=True)
-class GmshText:
+class GmshText(Struct, frozen=True):
     """What an ASCII Gmsh file holds: ``version`` ("2.2" or "4.1"), its node tags in file
     order, each element block as (element type, rows ``tag node-tag...``) and, for 4.1,
     the nodes' coordinates (None where a block is parametric)."""

@@ -24,8 +24,8 @@ put half a step before the first step it excludes, so that t = k·h falls clearl
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
+from msgspec import Struct, field
 import numpy as np
 
 from ..errors import SceneError
@@ -37,8 +37,7 @@ FIXES_CODIM = ("DCOFix", "DCOBallHitWall", "DCOSegBedSquash", "DCOSqueezeOut",
                "DCOSquash6", "DCOVerschoorRoller")
 
 
-@dataclass(frozen=True, eq=False)
-class ScriptScene:
+class ScriptScene(Struct, frozen=True, eq=False):
     """What a script reads of the assembled scene: its spec, the shapes' kinds and
     vertex ranges [off[i], off[i+1]), rest and initial positions (scene shapes only, no
     meshCO), and the positions of the meshCO obstacles (m, 3)."""
@@ -61,8 +60,7 @@ class ScriptScene:
         return [i for i, k in enumerate(self.kinds) if k != "tet"]
 
 
-@dataclass
-class ScriptMotion:
+class ScriptMotion(Struct):
     """What a script prescribes: Dirichlet and Neumann sets, the initial positions it
     leaves, and initial velocities (None: at rest)."""
 

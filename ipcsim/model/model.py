@@ -12,11 +12,14 @@ rest bounding-box diagonal l where the scene says so.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 from pathlib import Path
+from typing import ClassVar
 
+from msgspec import Struct
+from msgspec.structs import force_setattr
 import numpy as np
 
+from ..records import ByMeaning
 from .surface import index_set
 
 INF = math.inf
@@ -24,13 +27,13 @@ GRAVITY = (0.0, -9.80665, 0.0)  # m/s², y up, as the original
 
 
 def _freeze(obj, names) -> None:
-    """Copy the named array fields of a frozen dataclass into read-only C-contiguous arrays."""
+    """Copy the named array fields of a frozen record into read-only C-contiguous arrays."""
     for name in names:
         value = getattr(obj, name)
         if isinstance(value, np.ndarray):
             arr = np.array(value, order="C", copy=True)
             arr.flags.writeable = False
-            object.__setattr__(obj, name, arr)
+            force_setattr(obj, name, arr)
 
 
 def _vec3(v) -> tuple[float, float, float]:
@@ -47,8 +50,7 @@ def _in_window(t: float, window: tuple[float, float]) -> bool:
     return window[0] <= t < window[1]
 
 
-@dataclass(frozen=True, eq=False)
-class Release:
+class Release(Struct, frozen=True, eq=False):
     """A condition on the positions at the start of a step: the smallest coordinate
     ``axis`` over ``vertices`` is above ``above``. A Dirichlet set with a release is
     inactive (its vertices are free) at every step that starts with the condition met
@@ -59,17 +61,16 @@ class Release:
     above: float
 
     def __post_init__(self):
-        object.__setattr__(self, "vertices", index_set(self.vertices))
-        object.__setattr__(self, "axis", int(self.axis))
-        object.__setattr__(self, "above", float(self.above))
+        force_setattr(self, "vertices", index_set(self.vertices))
+        force_setattr(self, "axis", int(self.axis))
+        force_setattr(self, "above", float(self.above))
         _freeze(self, ("vertices",))
 
     def met(self, x: np.ndarray) -> bool:
         return bool(len(self.vertices)) and bool(x[self.vertices, self.axis].min() > self.above)
 
 
-@dataclass(frozen=True, eq=False)
-class DirichletSet:
+class DirichletSet(Struct, frozen=True, eq=False):
     """Vertices moved kinematically while active: each step of length h,
     x' = R (x - c) + c + v h with R = Rx(wx h) Ry(wy h) Rz(wz h). Active while the step
     starts inside ``time_range`` (and the global gate, if ``gated``) and, with a
@@ -85,12 +86,12 @@ class DirichletSet:
     release: Release | None = None  # inactive at steps that start with it met
 
     def __post_init__(self):
-        object.__setattr__(self, "vertices", index_set(self.vertices))
-        object.__setattr__(self, "linear_velocity", _vec3(self.linear_velocity))
-        object.__setattr__(self, "angular_velocity", _vec3(self.angular_velocity))
-        object.__setattr__(self, "time_range", _window(self.time_range))
+        force_setattr(self, "vertices", index_set(self.vertices))
+        force_setattr(self, "linear_velocity", _vec3(self.linear_velocity))
+        force_setattr(self, "angular_velocity", _vec3(self.angular_velocity))
+        force_setattr(self, "time_range", _window(self.time_range))
         if self.centre is not None:
-            object.__setattr__(self, "centre", _vec3(self.centre))
+            force_setattr(self, "centre", _vec3(self.centre))
         _freeze(self, ("vertices",))
 
     @property
@@ -106,8 +107,7 @@ class DirichletSet:
         return self.release is None or x is None or not self.release.met(x)
 
 
-@dataclass(frozen=True, eq=False)
-class NeumannSet:
+class NeumannSet(Struct, frozen=True, eq=False):
     """Extra body acceleration a (m/s^2) on free vertices while active: force m_i a."""
 
     vertices: np.ndarray  # (k,) int64
@@ -117,33 +117,32 @@ class NeumannSet:
     source: str = ""
 
     def __post_init__(self):
-        object.__setattr__(self, "vertices", index_set(self.vertices))
-        object.__setattr__(self, "acceleration", _vec3(self.acceleration))
-        object.__setattr__(self, "time_range", _window(self.time_range))
+        force_setattr(self, "vertices", index_set(self.vertices))
+        force_setattr(self, "acceleration", _vec3(self.acceleration))
+        force_setattr(self, "time_range", _window(self.time_range))
         _freeze(self, ("vertices",))
 
     def active(self, t: float, gate: tuple[float, float] = (0.0, INF)) -> bool:
         return _in_window(t, self.time_range) and (not self.gated or _in_window(t, gate))
 
 
-@dataclass(frozen=True)
-class MeshSequence:
+class MeshSequence(ByMeaning, Struct, frozen=True):
     """All vertices [start, stop) of one shape follow ``<folder>/<k>.<ext>`` at step k
     (0-based step index; frame 0 is the initial placement), in world coordinates."""
 
+    provenance: ClassVar[tuple[str, ...]] = ("line",)
     shape: int
     start: int
     stop: int
     folder: Path
     ext: str  # "msh" | "obj" | "seg" | "pt"
-    line: int | None = field(default=None, compare=False)
+    line: int | None = None
 
     def frame_path(self, k: int) -> Path:
         return Path(self.folder) / f"{k}.{self.ext}"
 
 
-@dataclass(frozen=True)
-class TimeSettings:
+class TimeSettings(Struct, frozen=True):
     """The clock and the integrator: backward Euler ("BE") or Newmark ("NM", β, γ)."""
 
     dt: float  # s
@@ -153,8 +152,7 @@ class TimeSettings:
     newmark_gamma: float = 0.5
 
 
-@dataclass(frozen=True)
-class SolverSettings:
+class SolverSettings(Struct, frozen=True):
     """Every number Newton, its line search and the friction lagging use."""
 
     newton_tolerances: tuple[float, ...]  # absolute ‖p‖∞ per step; later steps the last
@@ -173,8 +171,7 @@ class SolverSettings:
         return self.newton_tolerances[min(step, len(self.newton_tolerances) - 1)]
 
 
-@dataclass(frozen=True)
-class ConstraintSolverSettings:
+class ConstraintSolverSettings(Struct, frozen=True):
     """The SQP and QP baselines (``constraintSolver SQP|QP``): contact as constraints
     c(x) ≥ offset linearised in a sequence of QPs (SQP) or in one per step (QP), instead of
     IPC's barrier. ``constraint_type`` "volume", "gap" (the original's graphics /
@@ -199,8 +196,7 @@ _ARRAY_FIELDS = (
 )
 
 
-@dataclass(frozen=True, eq=False)
-class Model:
+class Model(Struct, frozen=True, eq=False):
     """Everything the simulation needs that does not change during a run. Nothing after
     the builder reads the scene: every setting is resolved into these fields."""
 

@@ -18,15 +18,15 @@ call (assembly keeps their sparsity pattern).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable, ClassVar, Protocol
 
+from msgspec import Struct
+from msgspec.structs import replace
 import numpy as np
 
 from ..kernels import assembly as ka
 from ..kernels.assembly import block_triplet_indices
 from ..kernels.scatter import block_matvec
-from ..records import replaced
 
 if TYPE_CHECKING:
     import scipy.sparse as sp
@@ -35,8 +35,7 @@ if TYPE_CHECKING:
     from ..contact.friction_lag import FrictionLag
 
 
-@dataclass(frozen=True)
-class Triplets:
+class Triplets(Struct, frozen=True):
     """A sparse matrix as COO triplets, ``scale`` times (rows, cols, vals); duplicates
     are summed by ``tocsr``. ``scaled(w)`` changes the factor only, so weighting a large
     Hessian copies nothing."""
@@ -117,8 +116,7 @@ class Triplets:
                        bucket_rows, bucket_vals)
 
 
-@dataclass(frozen=True, eq=False)
-class BlockHessian:
+class BlockHessian(Struct, frozen=True, eq=False):
     """A sparse matrix as 12 × 12 blocks over 4-vertex stencils (the contact pairs),
     ``scale`` times: block k is vals[144 k : 144 (k + 1)], row-major over the 12 DOFs of
     stencils[k]; blocks that share DOFs are summed. As triplets it would carry a row and
@@ -156,7 +154,7 @@ class BlockHessian:
         return self.vals if self.scale == 1.0 else self.scale * self.vals
 
     def scaled(self, w: float) -> "BlockHessian":
-        return self if w == 1.0 else replaced(self, scale=self.scale * w)
+        return self if w == 1.0 else replace(self, scale=self.scale * w)
 
     def tocsr(self, n_dofs: int) -> "sp.csr_matrix":
         return Triplets(*block_triplet_indices(self.stencils), self.values).tocsr(n_dofs)
@@ -176,8 +174,7 @@ class BlockHessian:
             piece.bucket_into(free_index, fill, bucket_rows, bucket_vals)
 
 
-@dataclass(frozen=True, eq=False)
-class ElementHessian:
+class ElementHessian(Struct, frozen=True, eq=False):
     """A Hessian of per-element blocks on a constant pattern, evaluated at ``x`` when it
     is used: ``element_values(x, lo, hi)`` gives the entries of elements lo..hi−1 (block
     after block) and ``element_pattern(elements)`` their (rows, cols). Assembly builds the
@@ -230,11 +227,11 @@ class ElementHessian:
         return self.vals if self.scale == 1.0 else self.scale * self.vals
 
     def scaled(self, w: float) -> "ElementHessian":
-        return self if w == 1.0 else replaced(self, scale=self.scale * w)
+        return self if w == 1.0 else replace(self, scale=self.scale * w)
 
     def kept(self) -> "ElementHessian":
         """The same Hessian with its values evaluated now and kept (damping's, for a step)."""
-        return replaced(self, element_values=_KeptValues(self.vals, self.block))
+        return replace(self, element_values=_KeptValues(self.vals, self.block))
 
     def tocsr(self, n_dofs: int) -> "sp.csr_matrix":
         rows, cols = self.element_pattern(self.elements)
@@ -271,8 +268,7 @@ class ElementHessian:
                                       self.elements[lo:hi], free_index, p, coupling)
 
 
-@dataclass(frozen=True, eq=False)
-class _KeptValues:
+class _KeptValues(Struct, frozen=True, eq=False):
     """A block-strided slice of Hessian values kept from one evaluation."""
 
     vals: np.ndarray
@@ -282,8 +278,7 @@ class _KeptValues:
         return self.vals[self.block * lo:self.block * hi]
 
 
-@dataclass(frozen=True, eq=False)
-class LaggedDamping:
+class LaggedDamping(Struct, frozen=True, eq=False):
     """Rayleigh damping frozen at the start of a step: D = (k/h)·∇²Ψ(xₙ)."""
 
     x_start: np.ndarray  # (n, 3) xₙ
@@ -295,11 +290,10 @@ class LaggedDamping:
         return block_matvec(D.vals, float(D.scale), D.elements, v)
 
 
-@dataclass(frozen=True, eq=False)
-class StepContext:
+class StepContext(Struct, frozen=True, eq=False):
     """Everything the terms of one time step need beyond the positions x.
 
-    Built once per step by the simulation; a new one (``records.replaced``) is made
+    Built once per step by the simulation; a new one (``msgspec.structs.replace``) is made
     whenever the collision set or the friction lag change. Nothing here is ever written
     to after construction. A field a term does not read may be left out (None)."""
 

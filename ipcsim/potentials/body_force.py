@@ -7,17 +7,17 @@ Hessian is zero.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import ClassVar
 
+from msgspec import Struct
+from msgspec.structs import force_setattr
 import numpy as np
 
 from ..kernels.simple_terms import body_force_value
 from .base import StepContext, Triplets
 
 
-@dataclass(frozen=True, eq=False)
-class BodyForce:
+class BodyForce(Struct, frozen=True, eq=False):
     """−Σ mᵢ aᵢ·xᵢ: gravity and the step's prescribed forces (``StepContext.acceleration``)."""
 
     mass: np.ndarray  # (n,) lumped masses
@@ -26,7 +26,7 @@ class BodyForce:
 
     def __post_init__(self):
         # a private writeable copy: the compiled kernels take writeable arrays
-        object.__setattr__(self, "mass", np.array(self.mass, dtype=float))
+        force_setattr(self, "mass", np.array(self.mass, dtype=float))
 
     def value(self, x, ctx: StepContext):
         return body_force_value(self.mass, ctx.acceleration, x)

@@ -21,9 +21,10 @@ the pull ends with their motion done. Where that move is not free,
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
 from typing import ClassVar
 
+from msgspec import Struct
+from msgspec.structs import replace
 import numpy as np
 
 from ..kernels.simple_terms import pull_gradient, pull_value
@@ -31,10 +32,10 @@ from .base import StepContext, Triplets
 
 START_RHO = 1e6  # ρ at the start of a pull (the original's)
 MAX_RHO = 1e8  # ρ is doubled up to this
+DONE = 1.0 - 1e-3  # the completion at which a pull ends
 
 
-@dataclass(frozen=True, eq=False)
-class BoundaryPull:
+class BoundaryPull(Struct, frozen=True, eq=False):
     """The augmented-Lagrangian pull of prescribed vertices towards their targets (module
     docstring)."""
 
@@ -81,8 +82,7 @@ class BoundaryPull:
         return replace(self, lam=lam - self.rho * np.sqrt(self.mass)[:, None] * self._offset(x))
 
 
-@dataclass(frozen=True)
-class PullSchedule:
+class PullSchedule(Struct, frozen=True):
     """When a pull tightens, as the original's: after a Newton iteration that ended at x
     with direction p, ρ doubles if the vertices fell back behind where the pull started
     (``completion < started_at``); otherwise, once the step is small (‖p‖∞ below
@@ -93,7 +93,7 @@ class PullSchedule:
 
     started_at: float  # the completion when the pull started
     small_step: float
-    done: float = 1.0 - 1e-3  # the completion at which a pull ends
+    done: float = DONE  # the completion at which a pull ends
     tail: float = 0.99  # the completion from which a pull is in its tail (``in_tail``)
 
     def in_tail(self, pull: BoundaryPull, x, p) -> bool:

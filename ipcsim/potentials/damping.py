@@ -13,15 +13,15 @@ so assembly reuses their pattern.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import ClassVar
+
+from msgspec import Struct
 
 from ..kernels.simple_terms import damping_value
 from .base import ElementHessian, LaggedDamping, StepContext
 
 
-@dataclass(frozen=True, eq=False)
-class Damping:
+class Damping(Struct, frozen=True, eq=False):
     """½ Δxᵀ D Δx with D the elastic Hessian lagged at the step's start, scaled by k/h."""
 
     scale: float  # k/h

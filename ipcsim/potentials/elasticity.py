@@ -17,10 +17,11 @@ elements and returns 1.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from functools import partial
 from typing import ClassVar
 
+from msgspec import Struct
+from msgspec.structs import force_setattr
 import numpy as np
 
 from ..kernels import elasticity as kern
@@ -34,8 +35,7 @@ _MODELS = {
 }
 
 
-@dataclass(frozen=True, eq=False)
-class Elasticity:
+class Elasticity(Struct, frozen=True, eq=False):
     """Elastic energy of m tets over n vertices.
 
     tets (m, 4) int, Dm_inv (m, 3, 3), volumes (m,) rest volumes, lame (m, 2) = (μ, λ) per tet
@@ -52,15 +52,13 @@ class Elasticity:
     min_volume_ratio: float = 0.1
     name: ClassVar[str] = "elasticity"
     constant_pattern: ClassVar[bool] = True  # same triplet index arrays on every call
-    model: int = field(init=False, repr=False)
 
     def __post_init__(self):
         key = str(self.energy).replace("-", "").replace("_", "").replace(" ", "").upper()
         if key not in _MODELS:
             raise ValueError(f"unknown elastic energy {self.energy!r}; expected 'NH' or 'FCR'")
-        put = partial(object.__setattr__, self)
-        put("model", _MODELS[key])
-        put("energy", "NH" if self.model == kern.NEO_HOOKEAN else "FCR")
+        put = partial(force_setattr, self)
+        put("energy", "NH" if _MODELS[key] == kern.NEO_HOOKEAN else "FCR")
         put("n_vertices", int(self.n_vertices))
         # private writeable C-contiguous copies: the Model's arrays are read-only, and numba
         # compiles a separate specialisation of every kernel for read-only arguments
@@ -78,6 +76,11 @@ class Elasticity:
         if not (0.0 <= self.min_volume_ratio < 1.0):
             raise ValueError("min_volume_ratio must lie in [0, 1)")
         put("min_volume_ratio", float(self.min_volume_ratio))
+
+    @property
+    def model(self) -> int:
+        """The kernels' code of the energy."""
+        return _MODELS[self.energy]
 
     def _positions(self, x) -> np.ndarray:
         x = np.ascontiguousarray(x, dtype=np.float64).reshape(-1, 3)

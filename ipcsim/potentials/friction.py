@@ -24,17 +24,17 @@ closely a sticking pair's creep is resolved is the scene's tolerance's business.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import ClassVar
 
+from msgspec import Struct
+from msgspec.structs import force_setattr
 import numpy as np
 
 from ..kernels import friction as kf
 from .base import StepContext, Triplets
 
 
-@dataclass(frozen=True, eq=False)
-class Friction:
+class Friction(Struct, frozen=True, eq=False):
     """Lagged, smoothed friction of the mesh and plane contacts (module docstring)."""
 
     eps: float  # ε_v·h, the sliding displacement below which friction ramps up
@@ -47,7 +47,7 @@ class Friction:
     def __post_init__(self):
         if not self.eps > 0.0:
             raise ValueError(f"friction threshold eps_v*h must be > 0, got {self.eps}")
-        object.__setattr__(self, "eps", float(self.eps))
+        force_setattr(self, "eps", float(self.eps))
 
     @staticmethod
     def _u(x, lag):

@@ -26,9 +26,9 @@ that whole first run took without them (36 s).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from functools import cached_property
 
+from msgspec import Struct, field
 import numpy as np
 
 from ..kernels import fused_terms as kf
@@ -85,8 +85,7 @@ _ABSENT = {
 }
 
 
-@dataclass(frozen=True, eq=False)
-class FusedTerms:
+class FusedTerms(Struct, frozen=True, eq=False):
     """The terms of a potential, by kind: ``kinds[i]`` is the kind of the i-th term,
     ``present`` (N_KINDS,) which kinds there are, ``terms`` the term of each kind (None
     where absent) and ``fixed`` each kind's data tuple as far as it does not depend on
@@ -100,7 +99,7 @@ class FusedTerms:
     fixed: tuple
     weighing: tuple
     bounds: tuple
-    _last: dict = field(default_factory=dict, repr=False)  # the last context's data
+    _last: dict = field(default_factory=dict)  # the last context's data
 
     @staticmethod
     def of(weighted_terms) -> "FusedTerms | None":
@@ -188,8 +187,7 @@ class FusedTerms:
                             data[:kf.BODY_FORCE] + data[kf.ELASTICITY:])
 
 
-@dataclass(frozen=True, eq=False)
-class FusedHessian:
+class FusedHessian(Struct, frozen=True, eq=False, dict=True):
     """The weighted sum of a potential's Hessians at x, as one part of a dense Newton
     matrix (``solver/assembly.DenseAssembler`` calls ``add_dense``); as triplets too
     (its nonzero entries), for whoever reads a Hessian so."""
@@ -237,8 +235,7 @@ _NO_MESH = (np.zeros((0, 1), dtype=np.int64), np.zeros((0, 2), dtype=np.int64),
             _NO_POINTS, False)
 
 
-@dataclass(frozen=True, eq=False)
-class LineSearchResult:
+class LineSearchResult(Struct, frozen=True, eq=False):
     """What ``line_search`` found (``kernels/fused_line_search.py``)."""
 
     x_new: np.ndarray
@@ -273,8 +270,7 @@ def line_search(fused: FusedTerms, x, p3, kappa: float, ctx: StepContext, mesh,
                             float(ccd_alpha), values, tuple(out[7:]))
 
 
-@dataclass(frozen=True, eq=False)
-class NewtonIterations:
+class NewtonIterations(Struct, frozen=True, eq=False):
     """What ``newton_iterations`` did: ``status`` (``kernels/fused_newton.py``'s codes),
     the next iteration's number, x and the last direction p (3n,), κ's state, E(x) (NaN:
     not known at this κ), CCD's α, the smallest α, whether the prescribed motion was

@@ -13,18 +13,17 @@ small scenes whose Newton matrix is dense.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from functools import cached_property
 
+from msgspec import Struct
+from msgspec.structs import replace
 import numpy as np
 
-from ..records import replaced
 from .base import Potential, StepContext, Triplets
 from .fused import FusedTerms
 
 
-@dataclass(frozen=True, eq=False)
-class WeightedTerm:
+class WeightedTerm(Struct, frozen=True, eq=False):
     """One term of the incremental potential with its weight (and κ, for a barrier)."""
 
     term: Potential
@@ -35,8 +34,7 @@ class WeightedTerm:
         return self.weight * kappa if self.barrier else self.weight
 
 
-@dataclass(frozen=True, eq=False)
-class TermValues:
+class TermValues(Struct, frozen=True, eq=False, dict=True):
     """Each term's value, and with order ≥ 1 its gradient, with order 2 its Hessian, at
     one x (unweighted; the weights and κ are applied by the sums).
 
@@ -98,8 +96,7 @@ class TermValues:
         return static, dynamic
 
 
-@dataclass(frozen=True, eq=False)
-class IncrementalPotential:
+class IncrementalPotential(Struct, frozen=True, eq=False):
     """The step's potential: its weighted terms, evaluated together where ``fused``."""
 
     terms: tuple[WeightedTerm, ...]
@@ -108,7 +105,7 @@ class IncrementalPotential:
     def fusing(self) -> "IncrementalPotential":
         """The same potential with its terms evaluated together (``fused.py``) where they
         all can be; its Hessians then go into a dense matrix only."""
-        return replaced(self, fused=FusedTerms.of(self.terms))
+        return replace(self, fused=FusedTerms.of(self.terms))
 
     def with_term(self, term: WeightedTerm) -> "IncrementalPotential":
         """This potential plus ``term`` (last), fused if this one is."""

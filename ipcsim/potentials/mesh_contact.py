@@ -11,17 +11,16 @@ collision set built at x; in the line search, every pair swept within d̂ along 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import ClassVar
 
+from msgspec import Struct
 import numpy as np
 
 from ..kernels import contact_barrier as kb
 from .base import BlockHessian, StepContext, Triplets
 
 
-@dataclass(frozen=True, eq=False)
-class MeshContact:
+class MeshContact(Struct, frozen=True, eq=False):
     """The barrier of the mesh's collision set at unit κ: Σ b(d², d̂²)."""
 
     dhat: float

@@ -30,9 +30,10 @@ its first set afresh, sums the barrier exactly as the uninterrupted run did.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from functools import cached_property
 
+from msgspec import Struct
+from msgspec.structs import replace
 import numpy as np
 
 from ..contact.ccd import line_search_bound, unbounded_step
@@ -42,17 +43,15 @@ from ..contact.friction_lag import FrictionLag, lag_friction
 from ..contact.setup import ContactCount, ContactSetup
 from ..contact.stiffness import BarrierStiffness
 from ..kernels.ccd import DEFAULT_MAX_ITERATIONS, DEFAULT_MIN_GAP_FRACTION
-from ..records import replaced
 from .base import StepContext, Triplets
-from .boundary_pull import BoundaryPull, PullSchedule
+from .boundary_pull import DONE as PULL_DONE, BoundaryPull, PullSchedule
 from .fused import LineSearchResult, NewtonIterations, newton_available
 from .fused import line_search as fused_line_search
 from .fused import newton_iterations as fused_newton_iterations
 from .incremental import IncrementalPotential, TermValues, WeightedTerm
 
 
-@dataclass(frozen=True, eq=False)
-class Evaluation:
+class Evaluation(Struct, frozen=True, eq=False, dict=True):
     """The incremental potential at one x: energy, gradient (order ≥ 1) and Hessian
     triplets split by pattern (order 2) at the κ in force, and the contacts at x. The
     energy is summed when first read (``TermValues.values``)."""
@@ -71,11 +70,10 @@ class Evaluation:
     def without_hessian(self) -> "Evaluation":
         """The same evaluation without its Hessian (whose contact entries, in heavy
         contact, are more memory than anything else Newton holds), once assembled."""
-        return replaced(self, hessian=None)
+        return replace(self, hessian=None)
 
 
-@dataclass(frozen=True, eq=False)
-class LineSearch:
+class LineSearch(Struct, frozen=True, eq=False):
     """The feasible part of a Newton direction: α ≤ ``max_alpha`` keeps x + αp free of
     intersections and inversions; ``energy(α)`` uses the pairs met along it."""
 
@@ -179,20 +177,20 @@ class StepObjective:
         with self.timer("contact_set"):
             collisions = self.collisions(x)
             contacts = self._count(x, collisions)
-        self.ctx = replaced(self.ctx, collisions=collisions)
+        self.ctx = replace(self.ctx, collisions=collisions)
         with self.timer("energy"):
             values = self.potential.evaluate(x, self.ctx, order)
             if order == 0:
                 known = self._values_at
                 if known is not None and known[0] is x and known[1:3] == (
                         self.stiffness.kappa, self.revision):
-                    values = replaced(values, known=known[3])  # the line search's
+                    values = replace(values, known=known[3])  # the line search's
                 values.values  # read at once: what order 0 is asked for
         if order == 2 and adapt:
             self._adapt_stiffness(values, contacts)
         kappa = self.stiffness.kappa
         hessian = values.hessian(kappa) if order >= 2 else None
-        values = replaced(values, hessians=None)  # held by ``hessian`` alone
+        values = replace(values, hessians=None)  # held by ``hessian`` alone
         return Evaluation(x, values, kappa, contacts,
                           values.gradient(kappa) if order >= 1 else None, hessian)
 
@@ -222,7 +220,7 @@ class StepObjective:
                     bound = unbounded_step(mesh, x, p3, self.contact.dhat, reach)
                 self.last_ccd_alpha = bound.alpha
                 alpha = min(alpha, bound.alpha)
-                ctx = replaced(ctx, collisions=bound.collisions)
+                ctx = replace(ctx, collisions=bound.collisions)
         return LineSearch(self, x, p3, alpha, ctx)
 
     def line_search(self, x: np.ndarray, p: np.ndarray, remaining: float, energy,
@@ -274,10 +272,10 @@ class StepObjective:
         ends a pull): what the compiled iterations test after the first one."""
         if self.pullable is None:
             return (False, np.zeros(len(self.ctx.x_start), np.bool_), self.ctx.x_start,
-                    PullSchedule.done)
+                    PULL_DONE)
         mass, bodies = self.pullable
         return (True, np.ascontiguousarray(bodies & (mass > 0.0)),
-                np.ascontiguousarray(self.ctx.x_start, dtype=float), PullSchedule.done)
+                np.ascontiguousarray(self.ctx.x_start, dtype=float), PULL_DONE)
 
     def newton_iterations(self, x: np.ndarray, first: int, cap: int, dofs, motion: float,
                           energy, progress: tuple, settings: tuple) -> NewtonIterations:
@@ -291,7 +289,7 @@ class StepObjective:
         completion)."""
         with self.timer("contact_set"):
             collisions = self.collisions(x)
-        self.ctx = replaced(self.ctx, collisions=collisions)
+        self.ctx = replace(self.ctx, collisions=collisions)
         c = Collisions.empty() if collisions is None else collisions
         d = c.distances or PairDistances(np.zeros(0, np.int64), np.zeros(0),
                                          np.zeros(0, np.int64), np.zeros(0))
@@ -317,14 +315,14 @@ class StepObjective:
               float(self.contact.dhat), DEFAULT_MIN_GAP_FRACTION, DEFAULT_MAX_ITERATIONS),
              self._pull_may_take))
         kappa, balanced, min_distance_sq = out.stiffness
-        self.stiffness = replaced(st, kappa=float(kappa), balanced=bool(balanced),
+        self.stiffness = replace(st, kappa=float(kappa), balanced=bool(balanced),
                                   min_distance_sq=float(min_distance_sq))
         if self.contact.mesh is not None:
             self.last_ccd_alpha = float(out.state[1])
             pt, ee, eps_x, pt_id, ee_id, *distances = out.collisions
             at_x = Collisions(pt, ee, eps_x, PairDistances(*distances), pt_id, ee_id)
             self._collisions_at = (out.x.copy(), at_x)
-            self.ctx = replaced(self.ctx, collisions=at_x)
+            self.ctx = replace(self.ctx, collisions=at_x)
         self._contacts_at = (out.x, out.contacts)
         fused = self.potential.fused
         if not np.isnan(out.values[fused.kinds[0]]):
@@ -343,7 +341,7 @@ class StepObjective:
     def nonfinite_terms(self, x: np.ndarray, p: np.ndarray | None = None) -> list[str]:
         """The terms that are not finite at x (or whose bound along p is not), each
         evaluated with the collision set at x."""
-        ctx = replaced(self.ctx, collisions=self.collisions(x))
+        ctx = replace(self.ctx, collisions=self.collisions(x))
         return self.potential.nonfinite_terms(x, ctx, p)
 
     # -- refreshes ---------------------------------------------------------------------------
@@ -364,7 +362,7 @@ class StepObjective:
         if pull is None:  # done: they stay at x for the rest of the step
             target = self.ctx.target.copy()
             target[self.pull.vertices] = x[self.pull.vertices]
-            self.ctx = replaced(self.ctx, target=target)
+            self.ctx = replace(self.ctx, target=target)
         if changed:
             self._set_pull(pull)
         return x
@@ -446,5 +444,5 @@ class StepObjective:
             collisions = self.collisions(x_lag)
         lag = lag_friction(x_lag, self.ctx.x_start, collisions, self.contact.planes,
                            self.contact.self_friction, self.stiffness.kappa, self.contact.dhat)
-        self.ctx = replaced(self.ctx, friction=lag)
+        self.ctx = replace(self.ctx, friction=lag)
         return lag

@@ -13,16 +13,16 @@ feasibility filter: ``max_step`` is 1, so nothing stops a step from crossing a s
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import ClassVar
+
+from msgspec import Struct
 
 from ..contact.planes import Planes
 from ..kernels import penalty as kp
 from .base import StepContext, Triplets
 
 
-@dataclass(frozen=True, eq=False)
-class PenaltyPlaneContact:
+class PenaltyPlaneContact(Struct, frozen=True, eq=False):
     """The penalty baseline's plane contact: a stiff quadratic inside d̂, no barrier."""
 
     planes: Planes
@@ -48,8 +48,7 @@ class PenaltyPlaneContact:
         return 1.0
 
 
-@dataclass(frozen=True, eq=False)
-class PenaltyMeshContact:
+class PenaltyMeshContact(Struct, frozen=True, eq=False):
     """The penalty baseline's mesh contact: a stiff quadratic inside d̂, no barrier."""
 
     dhat: float

@@ -4,8 +4,9 @@ potential multiplies barrier terms by κ). Its ``max_step`` is the planes' exact
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import ClassVar
+
+from msgspec import Struct
 
 from ..contact.planes import Planes
 from ..kernels import plane_contact as k
@@ -15,8 +16,7 @@ from .base import StepContext, Triplets
 CCD_KEEP_FRACTION = 0.1
 
 
-@dataclass(frozen=True, eq=False)
-class PlaneContact:
+class PlaneContact(Struct, frozen=True, eq=False):
     """The barrier of the vertices near the contact planes at unit κ."""
 
     planes: Planes

@@ -19,9 +19,10 @@ copy of the scene's when one of its material values is set. Values are TOML valu
 
 from __future__ import annotations
 
-import dataclasses
 import re
 from collections.abc import Mapping
+
+import msgspec
 
 from ..errors import SceneError, excerpt
 from .spec import SceneSpec
@@ -207,13 +208,13 @@ def _with_provenance(new: SceneSpec, old: SceneSpec, keys: dict, overrides) -> S
     def kept(items, before, *names):
         if len(items) != len(before):
             return items
-        return tuple(dataclasses.replace(s, **{n: getattr(o, n) for n in names})
+        return tuple(msgspec.structs.replace(s, **{n: getattr(o, n) for n in names})
                      for s, o in zip(items, before))
 
     shapes = kept(new.shapes, old.shapes, "path", "line")
     seen = {w.partition("warning: ")[2] for w in old.warnings}
     more = tuple(w for w in new.warnings if w.partition("warning: ")[2] not in seen)
-    return dataclasses.replace(new, shapes=shapes, planes=kept(new.planes, old.planes, "line"),
+    return msgspec.structs.replace(new, shapes=shapes, planes=kept(new.planes, old.planes, "line"),
                                mesh_obstacles=kept(new.mesh_obstacles, old.mesh_obstacles,
                                                    "path", "line"),
                                source=old.source, key_lines=lines,

@@ -6,16 +6,21 @@ scene files) and become radians in the model. Parameters documented as *relative
 multiplied by l, the rest bounding-box diagonal of all tet shapes, when the model is built
 (unless ``use_abs_parameters``).
 
-Fields marked ``compare=False`` record where something came from (file, line, the path as
-written); two scenes that mean the same simulation compare equal.
+The fields a record names in ``provenance`` say where something came from (file, line,
+the path as written); two scenes that mean the same simulation compare equal
+(``records.ByMeaning``).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
 from pathlib import Path
+from typing import ClassVar
+
+from msgspec import Struct, field
+
+from ..records import ByMeaning
 
 Vec3 = tuple[float, float, float]
 INF = math.inf
@@ -58,8 +63,7 @@ MESH_KINDS = {".msh": "tet", ".vtk": "tet", ".vtu": "tet", ".ele": "tet", "": "t
               ".obj": "surface", ".seg": "segments", ".pt": "points"}
 
 
-@dataclass(frozen=True)
-class MaterialSpec:
+class MaterialSpec(Struct, frozen=True):
     """A shape's material."""
 
     density: float  # kg/m^3
@@ -67,40 +71,39 @@ class MaterialSpec:
     poisson_ratio: float
 
 
-@dataclass(frozen=True)
-class DirichletSpec:
+class DirichletSpec(ByMeaning, Struct, frozen=True):
     """``DBC``: vertices in a box (relative to the shape's file-space AABB) move kinematically."""
+    provenance: ClassVar[tuple[str, ...]] = ("line",)
 
     box_min: Vec3
     box_max: Vec3
     linear_velocity: Vec3 = (0.0, 0.0, 0.0)  # m/s, world frame
     angular_velocity_deg: Vec3 = (0.0, 0.0, 0.0)  # deg/s, Rx*Ry*Rz
     time_range: tuple[float, float] = (0.0, INF)  # active while t0 <= t < t1
-    line: int | None = field(default=None, compare=False)
+    line: int | None = None
 
 
-@dataclass(frozen=True)
-class NeumannSpec:
+class NeumannSpec(ByMeaning, Struct, frozen=True):
     """``NBC``: extra body acceleration on the vertices in a box."""
+    provenance: ClassVar[tuple[str, ...]] = ("line",)
 
     box_min: Vec3
     box_max: Vec3
     acceleration: Vec3  # m/s^2
     time_range: tuple[float, float] = (0.0, INF)
-    line: int | None = field(default=None, compare=False)
+    line: int | None = None
 
 
-@dataclass(frozen=True)
-class InitialVelocitySpec:
+class InitialVelocitySpec(Struct, frozen=True):
     """A shape's initial velocity."""
 
     linear: Vec3  # m/s
     angular_deg: Vec3  # deg/s about the shape's initial AABB centre
 
 
-@dataclass(frozen=True)
-class ShapeSpec:
+class ShapeSpec(ByMeaning, Struct, frozen=True):
     """One shape line: a mesh file placed by p = R(rx,ry,rz) (s * p_file) + t."""
+    provenance: ClassVar[tuple[str, ...]] = ("path", "line")
 
     mesh_path: Path  # resolved, absolute
     translation: Vec3 = (0.0, 0.0, 0.0)
@@ -116,8 +119,8 @@ class ShapeSpec:
     # Set only where the extension does not tell the kind: a missing `x.seg` / `x.pt` falls
     # back to `x.obj` (as in the original), read as its edges / its vertices.
     mesh_kind: str | None = None
-    path: str = field(default="", compare=False)  # as written in the scene
-    line: int | None = field(default=None, compare=False)
+    path: str = ""  # as written in the scene
+    line: int | None = None
 
     @property
     def kind(self) -> str:
@@ -125,21 +128,21 @@ class ShapeSpec:
         return self.mesh_kind or MESH_KINDS[self.mesh_path.suffix.lower()]
 
 
-@dataclass(frozen=True)
-class PlaneSpec:
+class PlaneSpec(ByMeaning, Struct, frozen=True):
     """``ground <mu> <height>`` or ``halfSpace o n stiffness mu``; solid side opposite n."""
+    provenance: ClassVar[tuple[str, ...]] = ("line",)
 
     kind: str  # "ground" | "halfSpace"
     origin: Vec3
     normal: Vec3  # unit length
     friction: float = 0.0
     stiffness: float = 0.0  # read and ignored, as in the original
-    line: int | None = field(default=None, compare=False)
+    line: int | None = None
 
 
-@dataclass(frozen=True)
-class MeshObstacleSpec:
+class MeshObstacleSpec(ByMeaning, Struct, frozen=True):
     """``meshCO``: a static triangle-mesh obstacle (legacy)."""
+    provenance: ClassVar[tuple[str, ...]] = ("path", "line")
 
     mesh_path: Path
     position: Vec3
@@ -147,14 +150,15 @@ class MeshObstacleSpec:
     stiffness: float = 0.0
     friction: float = 0.0
     rotation_deg: Vec3 = (0.0, 0.0, 0.0)
-    path: str = field(default="", compare=False)
-    line: int | None = field(default=None, compare=False)
+    path: str = ""
+    line: int | None = None
 
 
-@dataclass(frozen=True)
-class SceneSpec:
+class SceneSpec(ByMeaning, Struct, frozen=True):
     """A whole scene as written (module docstring): shapes, planes, obstacles, time,
     material, contact and solver settings."""
+    provenance: ClassVar[tuple[str, ...]] = ("source", "warnings", "ignored", "key_lines",
+                                              "overrides")
 
     shapes: tuple[ShapeSpec, ...] = ()
     planes: tuple[PlaneSpec, ...] = ()
@@ -216,14 +220,14 @@ class SceneSpec:
     append_str: str = ""
 
     # provenance and diagnostics (not part of the scene's meaning)
-    source: Path | None = field(default=None, compare=False)
-    warnings: tuple[str, ...] = field(default=(), compare=False)
-    ignored: tuple[str, ...] = field(default=(), compare=False)  # viewer-only keys seen
+    source: Path | None = None
+    warnings: tuple[str, ...] = ()
+    ignored: tuple[str, ...] = ()  # viewer-only keys seen
     # where each value was written: TOML key path (``solver.linear_solver``) -> line
-    key_lines: Mapping[str, int] = field(default_factory=dict, compare=False, repr=False)
+    key_lines: Mapping[str, int] = field(default_factory=dict)
     # the overrides applied to the file's values (``load_scene(path, overrides)``, ``ipcsim
     # run --set``): dotted key as given -> value; their values are in the fields above
-    overrides: Mapping[str, object] = field(default_factory=dict, compare=False, repr=False)
+    overrides: Mapping[str, object] = field(default_factory=dict)
 
     @property
     def n_steps(self) -> int:

@@ -27,11 +27,11 @@ found, the line. Reading uses ``tomllib``; values are written with ``tomli_w``.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import re
 from pathlib import Path
 
+import msgspec
 import tomli_w
 
 from ..errors import SceneError, excerpt as _q
@@ -266,7 +266,7 @@ class _Reader:
             for key, (field, kind) in keys.items():
                 if key in data:
                     v[field] = self.value(data[key], f"{table}.{key}", kind)
-        if "dhat_start" in v and v["dhat_start"] == v.get("dhat", SceneSpec.dhat):
+        if "dhat_start" in v and v["dhat_start"] == v.get("dhat", SceneSpec().dhat):
             v["dhat_start"] = None  # no homotopy when start and target agree
         shapes = self.shapes(doc.get("shapes", []))
         planes = tuple(self.plane(p, f"planes[{k}]")
@@ -280,7 +280,7 @@ class _Reader:
             **v,
         )
         more = validate_scene(spec, source=self.source, lines=self.lines, fmt="toml")
-        return dataclasses.replace(spec, warnings=tuple(self.warnings) + more,
+        return msgspec.structs.replace(spec, warnings=tuple(self.warnings) + more,
                                    key_lines=dict(self.lines))
 
     def value(self, v, key: str, kind: str):
@@ -434,7 +434,7 @@ class _Reader:
         spacing = self.vec3(m["spacing"], f"{key}.matrix.spacing")
         base = self.shape({k: v for k, v in t.items() if k != "matrix"}, key)
         px, py, pz = base.translation
-        return [dataclasses.replace(base, translation=(px + spacing[0] * i, py + spacing[1] * j,
+        return [msgspec.structs.replace(base, translation=(px + spacing[0] * i, py + spacing[1] * j,
                                                        pz + spacing[2] * k))
                 for i in range(counts[0]) for j in range(counts[1]) for k in range(counts[2])]
 

@@ -21,11 +21,12 @@ values on the ``tol`` line ignored, unknown keywords skipped) this reader raises
 from __future__ import annotations
 
 import bisect
-import dataclasses
 import math
 import re
 import sys
 from pathlib import Path
+
+import msgspec
 
 from ..errors import SceneError, excerpt as _q
 from . import paths
@@ -385,7 +386,7 @@ class _TxtReader:
             **v,
         )
         more = validate_scene(spec, source=self.source, lines=self.lines, fmt="txt")
-        return dataclasses.replace(spec, warnings=tuple(self.warnings) + more,
+        return msgspec.structs.replace(spec, warnings=tuple(self.warnings) + more,
                                    key_lines=dict(self.lines))
 
     # files --------------------------------------------------------------------------------

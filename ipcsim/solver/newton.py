@@ -33,8 +33,8 @@ mirrors, and takes over where an iteration would raise (Python names the culprit
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
-
+from msgspec import Struct, field
+from msgspec.structs import replace
 import numpy as np
 
 from ..errors import NonFiniteError, SolverError
@@ -55,8 +55,7 @@ def _norm(v: np.ndarray) -> float:
     return float(np.sqrt(dot(v, v)))
 
 
-@dataclass(frozen=True, eq=False)
-class _System:
+class _System(Struct, frozen=True, eq=False):
     """The Newton system H_ff p_f = rhs over the free DOFs (A, rhs, the coupling H_fk p_k)
     and the direction p (3n,) with its prescribed part filled in."""
 
@@ -69,8 +68,7 @@ class _System:
     n_free: int
 
 
-@dataclass(frozen=True, eq=False)
-class _Dofs:
+class _Dofs(Struct, frozen=True, eq=False):
     """The DOF masks of a kinematic vertex mask: prescribed and free DOFs, each DOF's
     free number (−1 if prescribed) and how many are free."""
 
@@ -81,8 +79,7 @@ class _Dofs:
     n_free: int
 
 
-@dataclass(frozen=True)
-class NewtonResult:
+class NewtonResult(Struct, frozen=True):
     """What one minimisation did. ``rows`` holds a newton.csv row per iteration;
     ``final`` is the objective's evaluation at ``x`` (energy and contacts)."""
 
@@ -94,7 +91,7 @@ class NewtonResult:
     min_alpha: float = 1.0
     kinematic_complete: bool = True
     line_search_failures: int = 0
-    rows: tuple[dict, ...] = field(default=(), repr=False)
+    rows: tuple[dict, ...] = field(default=())
 
     def then(self, later: "NewtonResult") -> "NewtonResult":
         """This minimisation followed by ``later`` from where it ended (a friction update)."""
@@ -105,8 +102,7 @@ class NewtonResult:
                        + later.line_search_failures, rows=self.rows + later.rows)
 
 
-@dataclass
-class _Progress:
+class _Progress(Struct):
     """The running record of one ``solve``."""
 
     prescribed: float  # ‖target − x‖∞ over kinematic DOFs at the start

@@ -9,8 +9,9 @@ every finished run and the chart at the end.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
+
+from msgspec import Struct
 
 from ..errors import RunInterrupted
 from .runs import RunTask, cached_row, plan
@@ -21,8 +22,7 @@ __all__ = ["load_study", "make_study", "run_study", "StudySpec", "StudyResult", 
            "Chart", "default_output"]
 
 
-@dataclass(frozen=True)
-class StudyResult:
+class StudyResult(Struct, frozen=True):
     out: Path
     rows: tuple[dict, ...]  # study.csv's rows: the runs in order, then the reference
     ran: int  # runs executed by this call (the others were finished already)

@@ -11,15 +11,16 @@ one from its checkpoint (``ipcsim run --resume``) and starts the others.
 
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 import io
 import json
 import math
 import os
 import time
-from dataclasses import dataclass
 from pathlib import Path
+
+import msgspec
+from msgspec import Struct
 
 from ..errors import IpcsimError, RunInterrupted, SceneError, excerpt, one_line
 from .spec import Record, StudySpec
@@ -34,8 +35,7 @@ WORKER_ENV = {"IPCSIM_THREADS": "1", "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS"
               "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
 
-@dataclass(frozen=True)
-class RunTask:
+class RunTask(Struct, frozen=True):
     """One run of a study, as a worker gets it (plain values: it is pickled)."""
 
     name: str  # "3" (its row) or "reference"
@@ -52,7 +52,7 @@ class RunTask:
     def cache_key(self) -> dict:
         """What a cached row must match to stand for this run."""
         return {"digest": self.digest, "steps": self.steps,
-                "record": dataclasses.asdict(self.record)}
+                "record": msgspec.structs.asdict(self.record)}
 
 
 def plan(study: StudySpec, out: Path) -> tuple[list[RunTask], RunTask | None]:

@@ -40,8 +40,9 @@ from __future__ import annotations
 import math
 import os
 import tomllib
-from dataclasses import dataclass, field
 from pathlib import Path
+
+from msgspec import Struct, field
 
 from ..errors import SceneError, excerpt
 from ..scene.toml_format import locate_keys
@@ -54,16 +55,14 @@ MAX_RUNS = 100_000
 _TOP = ("study", "vary", "record", "reference", "chart")
 
 
-@dataclass(frozen=True)
-class Axis:
+class Axis(Struct, frozen=True):
     """Keys that change together: ``values[i]`` holds the i-th value of each key."""
 
     keys: tuple[str, ...]
     values: tuple[tuple, ...]
 
 
-@dataclass(frozen=True)
-class Record:
+class Record(Struct, frozen=True):
     """What each run's study.csv row holds beyond its parameters, status and cost."""
 
     columns: tuple[str, ...] = ()
@@ -72,16 +71,14 @@ class Record:
     final_state: bool = True
 
 
-@dataclass(frozen=True)
-class Chart:
+class Chart(Struct, frozen=True):
     x: str
     y: str = "wall_s"
     log_x: bool | None = None  # None: log when the values span a factor of 10 or more
     log_y: bool = False
 
 
-@dataclass(frozen=True)
-class StudySpec:
+class StudySpec(Struct, frozen=True):
     path: Path  # the study file, absolute
     scene: Path  # the base scene, absolute
     axes: tuple[Axis, ...]

@@ -3,9 +3,9 @@ time step on small generated scenes, and how each way of failing is labelled."""
 
 from __future__ import annotations
 
-import dataclasses
 import json
 
+import msgspec
 import numpy as np
 import pytest
 from generated import write_box_msh
@@ -117,8 +117,8 @@ def test_sqp_keeps_the_same_cube_out(tmp_path):
 
 def test_a_blow_up_is_a_labelled_solver_failure(tmp_path, capsys):
     model = build_model(load_scene(_scene(tmp_path, "SQP", SQP_SETTINGS, init_velocity=-4.0)))
-    cs = dataclasses.replace(model.constraint_solver, blow_up_factor=1e-3)
-    sim = Simulation(dataclasses.replace(model, constraint_solver=cs))
+    cs = msgspec.structs.replace(model.constraint_solver, blow_up_factor=1e-3)
+    sim = Simulation(msgspec.structs.replace(model, constraint_solver=cs))
     with pytest.raises(SolverError, match="step 1: blow-up") as err:
         sim.step()
     assert err.value.label == "Blow-up" and sim.outcome == "Blow-up"

@@ -24,9 +24,10 @@ def test_every_phase_of_a_run_is_timed_and_they_add_up(repo_root, tmp_path, caps
     with open(tmp_path / "run_phases.csv", newline="") as f:
         rows = [(r["phase"], int(r["depth"]), float(r["seconds"])) for r in csv.DictReader(f)]
     names = [name for name, _, _ in rows]
-    for name in TOP + UNDER_MAIN + UNDER_LOOP + UNDER_STEPS + (
-            "of which making the dataclasses",):
+    for name in TOP + UNDER_MAIN + UNDER_LOOP + UNDER_STEPS:
         assert name in names, name  # a function renamed in ipcsim shows here
+    # the records are Structs: no dataclass is made while a run starts (30–50 ms they took)
+    assert "of which making the dataclasses" not in names
     by_depth = {}
     for name, depth, seconds in rows:
         assert seconds >= -1e-3, (name, seconds)  # each "rest" is what its phase has left
@@ -35,7 +36,6 @@ def test_every_phase_of_a_run_is_timed_and_they_add_up(repo_root, tmp_path, caps
     assert sum(by_depth[1][n] for n in TOP) == pytest.approx(whole, abs=1e-3)
     main = by_depth[1]["main"]
     assert all(0.0 < by_depth[2][n] < main for n in UNDER_MAIN)
-    assert by_depth[2]["of which making the dataclasses"] < by_depth[1]["imports"]
     # the collector's passes fall inside the phases, not beside them
     assert 0.0 <= by_depth[1]["cycle collector (inside the phases above)"] < whole
 

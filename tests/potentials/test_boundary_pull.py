@@ -6,6 +6,7 @@ iteration could not take the prescribed vertices to their targets."""
 
 from __future__ import annotations
 
+from msgspec.structs import replace
 import numpy as np
 import pytest
 from generated import write_box_msh
@@ -14,7 +15,6 @@ from ipcsim.contact.intersection import find_intersections
 from ipcsim.kernels.linalg import tet_signed_volumes
 from ipcsim.model.builder import build_model
 from ipcsim.potentials.boundary_pull import MAX_RHO, START_RHO, BoundaryPull, PullSchedule
-from ipcsim.records import replaced
 from ipcsim.scene import load_scene
 from ipcsim.simulation import Simulation
 
@@ -222,7 +222,7 @@ def test_where_the_rest_of_the_move_is_not_free_the_multipliers_update(press_sce
 
     def blocked(self, y, p):
         line = real_max_step(self, y, p)
-        return replaced(line, max_alpha=0.5)
+        return replace(line, max_alpha=0.5)
 
     monkeypatch.setattr(type(objective), "max_step", blocked)
     before = objective.pull

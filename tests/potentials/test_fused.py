@@ -5,6 +5,7 @@ prescribed vertices), and whole runs."""
 
 from __future__ import annotations
 
+from msgspec.structs import replace
 import numpy as np
 import pytest
 
@@ -16,7 +17,6 @@ from ipcsim.potentials.fused import FusedTerms
 from ipcsim.potentials.incremental import IncrementalPotential, WeightedTerm
 from ipcsim.potentials.objective import StepObjective
 from ipcsim.potentials.penalty_contact import PenaltyPlaneContact
-from ipcsim.records import replaced
 from ipcsim.scene import load_scene
 from ipcsim.simulation import Simulation
 from ipcsim.solver.assembly import DenseAssembler
@@ -88,7 +88,7 @@ def test_every_number_is_the_terms_own(tmp_path, variant):
     objective = sim.objective(sim.state)
     ctx, contact = objective.ctx, sim.contact
     x = sim.state.x + 1e-6 * np.random.default_rng(1).normal(size=sim.state.x.shape)
-    at_x = replaced(ctx, collisions=build_collisions(contact.mesh, x, contact.dhat))
+    at_x = replace(ctx, collisions=build_collisions(contact.mesh, x, contact.dhat))
     assert at_x.collisions.may_be_active(contact.dhat)  # the boxes touch
     assert ctx.friction is not None and ctx.friction.count > 0
     kinematic = np.zeros(len(x), dtype=bool)
@@ -96,7 +96,7 @@ def test_every_number_is_the_terms_own(tmp_path, variant):
     kappa = 3.0 * objective.stiffness.kappa
     assert_same_numbers(sim.potential, x, at_x, kinematic, kappa)
     # a line search's set: swept over a motion, without distances
-    swept = replaced(ctx, collisions=swept_collisions(contact.mesh, x, x + 1e-4, contact.dhat))
+    swept = replace(ctx, collisions=swept_collisions(contact.mesh, x, x + 1e-4, contact.dhat))
     assert_same_numbers(sim.potential, x, swept, kinematic, kappa)
     # a pull of the top box's prescribed vertices, with multipliers
     top = np.arange(8, 16)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+from msgspec.structs import replace
 import numpy as np
 import pytest
 
@@ -17,7 +18,6 @@ from ipcsim.errors import NonFiniteError
 from ipcsim.kernels import fused_newton as kn
 from ipcsim.model.builder import build_model
 from ipcsim.potentials.objective import StepObjective
-from ipcsim.records import replaced
 from ipcsim.scene import load_scene
 from ipcsim.simulation import Simulation
 
@@ -181,7 +181,7 @@ def test_kappas_doubling_is_the_python_loops(tmp_path, monkeypatch, statuses):
     compiled, plain = (simulation(tmp_path, SCENES["backward Euler, friction"], on,
                                   monkeypatch) for on in (True, False))
     for sim in (compiled, plain):
-        sim.stiffness = replaced(sim.stiffness, eps_sq=sim.model.dhat ** 2)
+        sim.stiffness = replace(sim.stiffness, eps_sq=sim.model.dhat ** 2)
     steps = step_both(compiled, plain, monkeypatch, steps=20)
     assert statuses.count(kn.CONVERGED) >= 15
     doubled = [b["kappa"] == 2.0 * a["kappa"] for rows in steps for a, b in zip(rows, rows[1:])]
@@ -192,7 +192,7 @@ def test_the_iteration_cap_is_the_python_loops(tmp_path, monkeypatch, statuses):
     compiled, plain = (simulation(tmp_path, SCENES["backward Euler, friction"], on,
                                   monkeypatch) for on in (True, False))
     for sim in (compiled, plain):
-        sim.newton.settings = replaced(sim.newton.settings, max_newton_iterations=2)
+        sim.newton.settings = replace(sim.newton.settings, max_newton_iterations=2)
     step_both(compiled, plain, monkeypatch, steps=4)
     assert kn.ITERATION_CAP in statuses
     assert compiled.step().result.hit_iteration_cap
@@ -219,7 +219,7 @@ def test_an_iteration_that_would_raise_is_done_again_in_python(tmp_path, monkeyp
         sim.step()
         v = sim.state.v.copy()
         v[3, 1] = np.nan
-        sim.state = replaced(sim.state, v=v)
+        sim.state = replace(sim.state, v=v)
         with pytest.raises(NonFiniteError) as caught:
             sim.step()
         errors.append(str(caught.value))
@@ -273,9 +273,7 @@ def test_the_kinematic_completion_rule_is_the_python_loops(tmp_path, monkeypatch
     remains at the first iteration is 0.5 % of it: still to be done, on both sides."""
     from ipcsim.solver import newton
 
-    class Scaled(newton._Progress):
-        def __init__(self, prescribed, tol):
-            super().__init__(200.0 * prescribed, tol)
+    measured = newton._Progress
 
     compiled, plain = (simulation(tmp_path, SCENES["top face driven sideways"], on,
                                   monkeypatch) for on in (True, False))
@@ -283,7 +281,7 @@ def test_the_kinematic_completion_rule_is_the_python_loops(tmp_path, monkeypatch
 
     def progress(prescribed, tol):
         made.append(prescribed)
-        return Scaled(prescribed, tol)
+        return measured(200.0 * prescribed, tol)
 
     monkeypatch.setattr(newton, "_Progress", progress)
     steps = step_both(compiled, plain, monkeypatch, steps=4)
