@@ -30,7 +30,7 @@ import time
 from contextlib import contextmanager
 from pathlib import Path
 
-import msgspec
+from msgspec.structs import replace
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLES = REPO.parent / "shared" / "ipc-examples-full" / "input"
@@ -49,14 +49,14 @@ def baseline_scene(scene: Path, method: str, out: Path) -> Path:
 
     spec = load_scene(scene)
     if method == "IPC":
-        spec = msgspec.structs.replace(spec, constraint_solver="interiorPoint")
+        spec = replace(spec, constraint_solver="interiorPoint")
     elif spec.constraint_solver in METHODS:
-        spec = msgspec.structs.replace(spec, constraint_solver=method)
+        spec = replace(spec, constraint_solver=method)
     else:
         dhat = build_model(spec).dhat
-        spec = msgspec.structs.replace(spec, constraint_solver=method, constraint_type="graphics",
-                                   constraint_offset=dhat, active_set_convergence=True,
-                                   warm_start=max(spec.warm_start, 1))
+        spec = replace(spec, constraint_solver=method, constraint_type="graphics",
+                       constraint_offset=dhat, active_set_convergence=True,
+                       warm_start=max(spec.warm_start, 1))
     out.mkdir(parents=True, exist_ok=True)
     return save_scene(spec, out / f"{scene.stem}_{method}.toml")
 

@@ -49,8 +49,7 @@ class CollisionMesh(Struct, frozen=True, eq=False, dict=True):
         verts = np.array(np.asarray(self.vertices).reshape(-1), dtype=np.int64)
         force_setattr(self, "vertices", verts)
         force_setattr(self, "edges", np.array(_index_array(self.edges, 2, "edges")))
-        force_setattr(self, "triangles",
-                           np.array(_index_array(self.triangles, 3, "triangles")))
+        force_setattr(self, "triangles", np.array(_index_array(self.triangles, 3, "triangles")))
         force_setattr(self, "body", np.array(self.body, dtype=np.int64))
         force_setattr(self, "kinematic", np.array(self.kinematic, dtype=np.bool_))
         if self.rest is not None:

@@ -316,7 +316,7 @@ class StepObjective:
              self._pull_may_take))
         kappa, balanced, min_distance_sq = out.stiffness
         self.stiffness = replace(st, kappa=float(kappa), balanced=bool(balanced),
-                                  min_distance_sq=float(min_distance_sq))
+                                 min_distance_sq=float(min_distance_sq))
         if self.contact.mesh is not None:
             self.last_ccd_alpha = float(out.state[1])
             pt, ee, eps_x, pt_id, ee_id, *distances = out.collisions

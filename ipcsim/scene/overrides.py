@@ -22,7 +22,7 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping
 
-import msgspec
+from msgspec.structs import replace
 
 from ..errors import SceneError, excerpt
 from .spec import SceneSpec
@@ -208,15 +208,15 @@ def _with_provenance(new: SceneSpec, old: SceneSpec, keys: dict, overrides) -> S
     def kept(items, before, *names):
         if len(items) != len(before):
             return items
-        return tuple(msgspec.structs.replace(s, **{n: getattr(o, n) for n in names})
+        return tuple(replace(s, **{n: getattr(o, n) for n in names})
                      for s, o in zip(items, before))
 
     shapes = kept(new.shapes, old.shapes, "path", "line")
     seen = {w.partition("warning: ")[2] for w in old.warnings}
     more = tuple(w for w in new.warnings if w.partition("warning: ")[2] not in seen)
-    return msgspec.structs.replace(new, shapes=shapes, planes=kept(new.planes, old.planes, "line"),
-                               mesh_obstacles=kept(new.mesh_obstacles, old.mesh_obstacles,
-                                                   "path", "line"),
-                               source=old.source, key_lines=lines,
-                               warnings=old.warnings + more, ignored=old.ignored,
-                               overrides={**old.overrides, **overrides})
+    return replace(new, shapes=shapes, planes=kept(new.planes, old.planes, "line"),
+                   mesh_obstacles=kept(new.mesh_obstacles, old.mesh_obstacles,
+                                       "path", "line"),
+                   source=old.source, key_lines=lines,
+                   warnings=old.warnings + more, ignored=old.ignored,
+                   overrides={**old.overrides, **overrides})

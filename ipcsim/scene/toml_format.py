@@ -31,7 +31,7 @@ import math
 import re
 from pathlib import Path
 
-import msgspec
+from msgspec.structs import replace
 import tomli_w
 
 from ..errors import SceneError, excerpt as _q
@@ -280,8 +280,8 @@ class _Reader:
             **v,
         )
         more = validate_scene(spec, source=self.source, lines=self.lines, fmt="toml")
-        return msgspec.structs.replace(spec, warnings=tuple(self.warnings) + more,
-                                   key_lines=dict(self.lines))
+        return replace(spec, warnings=tuple(self.warnings) + more,
+                       key_lines=dict(self.lines))
 
     def value(self, v, key: str, kind: str):
         if kind == "float":
@@ -434,8 +434,8 @@ class _Reader:
         spacing = self.vec3(m["spacing"], f"{key}.matrix.spacing")
         base = self.shape({k: v for k, v in t.items() if k != "matrix"}, key)
         px, py, pz = base.translation
-        return [msgspec.structs.replace(base, translation=(px + spacing[0] * i, py + spacing[1] * j,
-                                                       pz + spacing[2] * k))
+        return [replace(base, translation=(px + spacing[0] * i, py + spacing[1] * j,
+                                           pz + spacing[2] * k))
                 for i in range(counts[0]) for j in range(counts[1]) for k in range(counts[2])]
 
     def material(self, v, key: str) -> MaterialSpec:

@@ -26,7 +26,7 @@ import re
 import sys
 from pathlib import Path
 
-import msgspec
+from msgspec.structs import replace
 
 from ..errors import SceneError, excerpt as _q
 from . import paths
@@ -386,8 +386,8 @@ class _TxtReader:
             **v,
         )
         more = validate_scene(spec, source=self.source, lines=self.lines, fmt="txt")
-        return msgspec.structs.replace(spec, warnings=tuple(self.warnings) + more,
-                                   key_lines=dict(self.lines))
+        return replace(spec, warnings=tuple(self.warnings) + more,
+                       key_lines=dict(self.lines))
 
     # files --------------------------------------------------------------------------------
 

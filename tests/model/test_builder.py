@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-import msgspec
+from msgspec.structs import replace
 import numpy as np
 import pytest
 
@@ -186,7 +186,7 @@ def test_mesh_obstacle_placement(mesh_dir):
     assert model.needs_mesh_contact
     # l ignores obstacles (and `size` rescaled only the tet shape)
     assert model.bbox_diagonal == pytest.approx(2 * math.sqrt(3))
-    no_self = build_model(msgspec.structs.replace(scene, self_collision=False))
+    no_self = build_model(replace(scene, self_collision=False))
     assert not no_self.needs_self_contact and no_self.needs_mesh_contact
 
 
@@ -282,12 +282,12 @@ def test_restart_sets_initial_state(mesh_dir, tmp_path):
              "", "velocity 24", *(f"{v:.20g}" for v in vel.ravel())]
     status = tmp_path / "status7"
     status.write_text("\n".join(lines) + "\n")
-    model = build_model(msgspec.structs.replace(scene, restart=status))
+    model = build_model(replace(scene, restart=status))
     assert np.allclose(model.initial_positions, pos)  # cube1 vertices are in FILE_CUBE order
     assert np.allclose(model.initial_velocities, vel)
     status.write_text("\n".join(lines).replace("position 8 3", "position 7 3") + "\n")
     with pytest.raises((SceneError, MeshError)):
-        build_model(msgspec.structs.replace(scene, restart=status))
+        build_model(replace(scene, restart=status))
 
 
 # ----------------------------------------------------------------------------- parameters, terms
@@ -304,12 +304,12 @@ def test_absolute_parameters(mesh_dir):
     assert model.newton_tol(0) == pytest.approx(1e-3 * l * 0.01)
     assert model.newton_tol(5) == pytest.approx(1e-2 * l * 0.01)
     assert model.kappa is None
-    ab = build_model(msgspec.structs.replace(base, use_abs_parameters=True, kappa=1e5))
+    ab = build_model(replace(base, use_abs_parameters=True, kappa=1e5))
     assert ab.dhat == 2e-3 and ab.epsv == 1e-4 and ab.dtol == 1e-8
     assert ab.newton_tol(0) == 1e-3 and ab.kappa == 1e5
-    given = build_model(msgspec.structs.replace(base, dhat_abs=0.05, epsv_abs=0.2, dhat_start=4e-3))
+    given = build_model(replace(base, dhat_abs=0.05, epsv_abs=0.2, dhat_start=4e-3))
     assert given.dhat == 0.05 and given.epsv == 0.2
-    damped = build_model(msgspec.structs.replace(base, damping_ratio=0.5))
+    damped = build_model(replace(base, damping_ratio=0.5))
     assert damped.damping_stiffness == pytest.approx(0.75 * 0.5 * 0.01**3)
 
 
@@ -319,7 +319,7 @@ def test_terms_only_what_the_scene_needs(mesh_dir):
     model = build_model(plain)
     assert model.terms == ("inertia (backward Euler)", "elasticity: neo-Hookean (1 shape)")
     assert not model.needs_mesh_contact and not model.needs_friction
-    full = msgspec.structs.replace(
+    full = replace(
         plain, gravity=True, self_collision=True, self_friction=0.0, energy="FCR",
         planes=(PlaneSpec("ground", (0, 0, 0), (0, 1, 0), 0.0),), damping_stiff=0.1,
         shapes=(ShapeSpec(cube, translation=(0, 2, 0),
@@ -332,7 +332,7 @@ def test_terms_only_what_the_scene_needs(mesh_dir):
                            "Neumann BC (1 set)", "Dirichlet BC (1 fixed set)")
     assert not model.needs_friction  # every mu is 0
     assert model.elastic_tets.tolist() == [True] * 6 + [False] * 6
-    fric = build_model(msgspec.structs.replace(full, self_friction=0.2))
+    fric = build_model(replace(full, self_friction=0.2))
     assert fric.needs_friction and "friction (mu=0.2 mesh contacts)" in fric.terms
 
 
