@@ -7,9 +7,12 @@ import msgspec
 import numpy as np
 import pytest
 
+import ipcsim.model.model as model_module
+import ipcsim.scene.spec as spec_module
 from ipcsim.contact.stiffness import BarrierStiffness
-from ipcsim.model.model import MeshSequence
+from ipcsim.model.model import DirichletSet, MeshSequence
 from ipcsim.potentials.base import StepContext
+from ipcsim.records import ByMeaning
 from ipcsim.scene.spec import PlaneSpec, SceneSpec, ShapeSpec
 
 
@@ -28,8 +31,6 @@ def test_a_replaced_step_record_is_new_and_the_old_one_untouched():
 
 def test_post_init_runs_on_replace():
     s = MeshSequence(0, 0, 4, Path("seq"), "obj")
-    from ipcsim.model.model import DirichletSet
-
     d = msgspec.structs.replace(DirichletSet(np.array([3, 1, 3])), vertices=[5, 2, 5])
     assert d.vertices.tolist() == [2, 5] and not d.vertices.flags.writeable
     assert msgspec.structs.replace(s, stop=5).stop == 5
@@ -51,12 +52,7 @@ def test_equal_by_meaning_whatever_the_line_or_the_path_as_written(tmp_path):
 
 
 def test_every_provenance_field_is_a_field():
-    from ipcsim.records import ByMeaning
-
-    import ipcsim.model.model as model
-    import ipcsim.scene.spec as spec
-
-    for module in (spec, model):
+    for module in (spec_module, model_module):
         for cls in vars(module).values():
             if isinstance(cls, type) and issubclass(cls, ByMeaning) and cls is not ByMeaning:
                 assert cls.provenance and set(cls.provenance) <= set(cls.__struct_fields__), cls
