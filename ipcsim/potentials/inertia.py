@@ -4,7 +4,6 @@ integrator's prediction of the step (``ctx.x_tilde``)."""
 from __future__ import annotations
 
 from functools import cached_property
-
 from typing import ClassVar
 
 from msgspec import Struct
