@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import ClassVar
 
 import pytest
 from examples import IPC_EXAMPLES, REPO_ROOT
@@ -30,10 +31,9 @@ def pulls_end_by_placement(monkeypatch) -> list:
     from ipcsim.potentials.objective import StepObjective
 
     class EndsOnlyInItsTail(PullSchedule, frozen=True):
-        done: float = 1.0
+        done: ClassVar[float] = 1.0
 
     monkeypatch.setattr(objective_module, "PullSchedule", EndsOnlyInItsTail)
-    monkeypatch.setattr(objective_module, "PULL_DONE", 1.0)  # the compiled iterations'
     placed = []
     place = StepObjective._place_pulled
     monkeypatch.setattr(StepObjective, "_place_pulled",

@@ -32,7 +32,6 @@ from .base import StepContext, Triplets
 
 START_RHO = 1e6  # ρ at the start of a pull (the original's)
 MAX_RHO = 1e8  # ρ is doubled up to this
-DONE = 1.0 - 1e-3  # the completion at which a pull ends
 
 
 class BoundaryPull(Struct, frozen=True, eq=False):
@@ -93,8 +92,8 @@ class PullSchedule(Struct, frozen=True):
 
     started_at: float  # the completion when the pull started
     small_step: float
-    done: float = DONE  # the completion at which a pull ends
-    tail: float = 0.99  # the completion from which a pull is in its tail (``in_tail``)
+    done: ClassVar[float] = 1.0 - 1e-3  # the completion at which a pull ends
+    tail: ClassVar[float] = 0.99  # the completion from which a pull is in its tail
 
     def in_tail(self, pull: BoundaryPull, x, p) -> bool:
         """Whether the vertices have nearly closed in: the step small, ``tail`` done and

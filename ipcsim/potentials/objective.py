@@ -44,7 +44,7 @@ from ..contact.setup import ContactCount, ContactSetup
 from ..contact.stiffness import BarrierStiffness
 from ..kernels.ccd import DEFAULT_MAX_ITERATIONS, DEFAULT_MIN_GAP_FRACTION
 from .base import StepContext, Triplets
-from .boundary_pull import DONE as PULL_DONE, BoundaryPull, PullSchedule
+from .boundary_pull import BoundaryPull, PullSchedule
 from .fused import LineSearchResult, NewtonIterations, newton_available
 from .fused import line_search as fused_line_search
 from .fused import newton_iterations as fused_newton_iterations
@@ -272,10 +272,10 @@ class StepObjective:
         ends a pull): what the compiled iterations test after the first one."""
         if self.pullable is None:
             return (False, np.zeros(len(self.ctx.x_start), np.bool_), self.ctx.x_start,
-                    PULL_DONE)
+                    PullSchedule.done)
         mass, bodies = self.pullable
         return (True, np.ascontiguousarray(bodies & (mass > 0.0)),
-                np.ascontiguousarray(self.ctx.x_start, dtype=float), PULL_DONE)
+                np.ascontiguousarray(self.ctx.x_start, dtype=float), PullSchedule.done)
 
     def newton_iterations(self, x: np.ndarray, first: int, cap: int, dofs, motion: float,
                           energy, progress: tuple, settings: tuple) -> NewtonIterations:
