@@ -246,3 +246,6 @@ class SceneSpec(ByMeaning, Struct, frozen=True):
     def newton_tol_at(self, step: int) -> float:
         """Per-step tolerance list: step i uses entry i, later steps the last entry."""
         return self.newton_tol[min(step, len(self.newton_tol) - 1)]
+
+
+DEFAULTS = SceneSpec()  # every default, for the readers and writers to compare with

@@ -38,6 +38,7 @@ from ..errors import SceneError, excerpt as _q
 from . import paths
 from .spec import (
     CONTACT_FORMULATIONS,
+    DEFAULTS,
     INF,
     MESH_KINDS,
     DirichletSpec,
@@ -266,7 +267,7 @@ class _Reader:
             for key, (field, kind) in keys.items():
                 if key in data:
                     v[field] = self.value(data[key], f"{table}.{key}", kind)
-        if "dhat_start" in v and v["dhat_start"] == v.get("dhat", SceneSpec().dhat):
+        if "dhat_start" in v and v["dhat_start"] == v.get("dhat", DEFAULTS.dhat):
             v["dhat_start"] = None  # no homotopy when start and target agree
         shapes = self.shapes(doc.get("shapes", []))
         planes = tuple(self.plane(p, f"planes[{k}]")

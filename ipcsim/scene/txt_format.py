@@ -32,6 +32,7 @@ from ..errors import SceneError, excerpt as _q
 from . import paths
 from .spec import (
     CONSTRAINT_TYPES,
+    DEFAULTS,
     UNSUPPORTED_CONSTRAINT_TYPES,
     ENERGIES,
     INF,
@@ -956,7 +957,6 @@ def parse_txt(text: str, source=None) -> SceneSpec:
 
 # ----------------------------------------------------------------------------- writer
 
-_DEFAULT = SceneSpec()
 # linearSolver spellings the original knows (upper case); others are written as stored.
 _SOLVER_SPELLING = {"cholmod": "CHOLMOD", "eigen": "EIGEN", "amgcl": "AMGCL"}
 
@@ -1040,7 +1040,7 @@ def _physics_lines(s: SceneSpec) -> list[str]:
 def _contact_lines(s: SceneSpec) -> list[str]:
     L = ["selfCollisionOn" if s.self_collision else "selfCollisionOff",
          f"selfFric {_f(s.self_friction)}"]
-    if s.dhat_start is not None or s.dtol != _DEFAULT.dtol:
+    if s.dhat_start is not None or s.dtol != DEFAULTS.dtol:
         # only `tuning` can say an initial dHat or dTol; its first entry is kappa (0: adaptive)
         L.append("tuning 6")
         L.extend(_f(x) for x in (s.kappa or 0.0, s.dhat_start or s.dhat, s.dhat, s.dtol,
