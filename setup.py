@@ -17,7 +17,7 @@ from setuptools.command.build_ext import build_ext
 
 ROOT = Path(__file__).resolve().parent
 COMPILED = "ipcsim.kernels._compiled"
-MANIFEST = "_compiled.json"
+COMPANIONS = ("_compiled.json", "_compiled.matchers")  # its manifest, its matchers' code
 
 
 class BuildKernels(build_ext):
@@ -41,21 +41,22 @@ class BuildKernels(build_ext):
         return None
 
     def get_outputs(self):
-        # only what was built (the compiled kernels are optional), with their manifest
+        # only what was built (the compiled kernels are optional), with its companions
         built = [path for path in super().get_outputs() if os.path.exists(path)]
-        return built + [str(Path(path).with_name(MANIFEST)) for path in built
-                        if Path(path).with_name(MANIFEST).exists()]
+        return built + [str(Path(path).with_name(name)) for path in built
+                        for name in COMPANIONS if Path(path).with_name(name).exists()]
 
     def copy_extensions_to_source(self):
-        # an editable install: the manifest goes into the sources with the module
+        # an editable install: the companions go into the sources with the module
         super().copy_extensions_to_source()
         build_py = self.get_finalized_command("build_py")
         for ext in self.extensions:
             if ext.name == COMPILED:
                 inplace, regular = self._get_inplace_equivalent(build_py, ext)
-                manifest = Path(regular).with_name(MANIFEST)
-                if manifest.exists():
-                    self.copy_file(str(manifest), str(Path(inplace).with_name(MANIFEST)))
+                for name in COMPANIONS:
+                    if Path(regular).with_name(name).exists():
+                        self.copy_file(str(Path(regular).with_name(name)),
+                                       str(Path(inplace).with_name(name)))
 
 
 setup(ext_modules=[Extension(COMPILED, sources=[], optional=True)],

@@ -4,7 +4,8 @@ Installing ipcsim compiles the serial variant of every kernel a scene calls from
 for the argument types listed in ``signatures.txt``, into one extension module
 (``_compiled*.so``, built by ``aot_build.py``), with a manifest beside it
 (``_compiled.json``): the digest of the kernel sources it was built from, the CPU
-features it was built for, and which export is which kernel for which argument types.
+features it was built for, and which export is which kernel for which argument types;
+and the compiled code of each kernel's argument matcher (``_compiled.matchers``).
 A run then needs neither numba nor its cache for those calls: no compiling on a first
 run, and no second of loading numba at every start.
 
@@ -36,6 +37,7 @@ HERE = Path(__file__).resolve().parent
 TABLE = HERE / "signatures.txt"
 MODULE_NAME = "_compiled"
 MANIFEST = f"{MODULE_NAME}.json"
+MATCHERS = f"{MODULE_NAME}.matchers"  # the compiled code of the matchers (store_matchers)
 
 _NUMBERS = ("float64", "int64", "int32", "bool", "float32", "uint8", "int8")
 _DTYPES = {np.dtype(name): name for name in _NUMBERS}  # dtype.name is slow (microseconds)
@@ -60,11 +62,12 @@ def _key(a):
     return _SCALARS.get(t)
 
 
-def matcher(entries: dict | None):
+def matcher(entries: dict | None, code=None):
     """``match(args)``: the function of ``entries`` (argument key -> compiled function)
     whose key is ``argument_types(args)``, else None; the same answer as
     ``entries.get(argument_types(args))`` in a fraction of its time (a kernel call from
     Python pays it every time: tens of thousands of calls in a tiny scene's run).
+    ``code`` is ``matcher_code(tuple(entries))`` where it was stored at the build.
 
     It is generated as one chain of tests per key, e.g. for ``(("float64", 2), "int64")``::
 
@@ -75,17 +78,25 @@ def matcher(entries: dict | None):
     """
     if not entries:
         return _no_match
-    namespace = {"ndarray": np.ndarray}
+    namespace = dict(_MATCH_NAMES)
+    namespace.update((f"f{i}", function) for i, function in enumerate(entries.values()))
+    exec(code or matcher_code(tuple(entries)), namespace)  # noqa: S102
+    return namespace["match"]
+
+
+def matcher_code(keys: tuple):
+    """The compiled ``def match(args)`` of ``matcher``, testing ``keys`` in order (the
+    i-th returns ``f{i}``). Compiling it takes most of the time of making a matcher
+    (2–3 ms for the fused Newton iterations' key), so the build stores it
+    (``store_matchers``)."""
     names = (f"v{i}" for i in itertools.count())  # each value is looked up once
     lines = ["def match(args):", "    n = len(args)"]
-    for i, (key, function) in enumerate(entries.items()):
-        namespace[f"f{i}"] = function
-        tests = [f"n == {len(key)}"] + [_test(f"args[{j}]", k, namespace, names)
+    for i, key in enumerate(keys):
+        tests = [f"n == {len(key)}"] + [_test(f"args[{j}]", k, names)
                                         for j, k in enumerate(key)]
         lines += [f"    if {' and '.join(tests)}:", f"        return f{i}"]
     lines.append("    return None")
-    exec("\n".join(lines), namespace)
-    return namespace["match"]
+    return compile("\n".join(lines), "<aot.matcher>", "exec")
 
 
 def _no_match(args):
@@ -93,33 +104,75 @@ def _no_match(args):
 
 
 def match_on_first_call(kernel):
-    """A stand-in for ``kernel.match`` that generates the matcher of ``kernel.compiled``
+    """A stand-in for ``kernel.match`` that makes the matcher of ``kernel.compiled``
     at the kernel's first call and puts it in its place: a run calls a few dozen of the
-    package's kernels, and generating one costs tens of microseconds at import."""
+    package's kernels, and making one costs tens of microseconds at import (its code
+    stored by the build), milliseconds where it is compiled."""
     def first_match(args):
-        kernel.match = matcher(kernel.compiled)
+        kernel.match = matcher(kernel.compiled, stored_matcher_code(kernel.py_func,
+                                                                   kernel.compiled))
         return kernel.match(args)
     return first_match
 
 
-def _test(expr: str, key, namespace: dict, names) -> str:
+# the names a matcher's tests read besides its functions
+_MATCH_NAMES = {"ndarray": np.ndarray,
+                **{f"d_{name}": np.dtype(name) for name in _NUMBERS},
+                **{f"s_{name}": frozenset(t for t, n in _SCALARS.items() if n == name)
+                   for name in _NUMBERS}}
+
+
+def _test(expr: str, key, names) -> str:
     """The Python expression that holds when ``_key(expr) == key``; an array or a tuple
     is bound to the next of ``names`` where it is first read."""
     if key is None:
         return "False"
     if isinstance(key, tuple) and len(key) == 2 and isinstance(key[1], int):  # an array
         dtype, ndim = key
-        namespace[f"d_{dtype}"] = np.dtype(dtype)
         a = next(names)
         return (f"(type({a} := {expr}) is ndarray and ({a}.dtype is d_{dtype} or "
                 f"{a}.dtype == d_{dtype}) and {a}.ndim == {ndim} and {a}.flags.carray)")
     if isinstance(key, tuple):
         t = next(names)
-        items = [_test(f"{t}[{j}]", k, namespace, names) for j, k in enumerate(key)]
+        items = [_test(f"{t}[{j}]", k, names) for j, k in enumerate(key)]
         return f"(type({t} := {expr}) is tuple and len({t}) == {len(key)} and " \
                f"{' and '.join(items) or 'True'})"
-    namespace[f"s_{key}"] = frozenset(t for t, name in _SCALARS.items() if name == key)
     return f"type({expr}) in s_{key}"
+
+
+def store_matchers(folder: Path, kernels: dict) -> Path:
+    """Write the compiled code of each kernel's matcher (``kernels``: (module, function)
+    -> its argument keys in export order) to ``folder/MATCHERS``, marshalled after this
+    interpreter's bytecode magic number, as a ``.pyc`` holds its code."""
+    import importlib.util
+    import marshal
+
+    table = {name: (tuple(keys), matcher_code(tuple(keys))) for name, keys in kernels.items()}
+    path = folder / MATCHERS
+    path.write_bytes(importlib.util.MAGIC_NUMBER + marshal.dumps(table))
+    return path
+
+
+def _stored_matchers(folder: Path) -> dict:
+    """The matchers' code ``store_matchers`` wrote in ``folder``; empty where there is
+    none or it was written by another Python's bytecode."""
+    import importlib.util
+    import marshal
+
+    try:
+        data = (folder / MATCHERS).read_bytes()
+        magic = importlib.util.MAGIC_NUMBER
+        return marshal.loads(data[len(magic):]) if data.startswith(magic) else {}
+    except (OSError, ValueError, EOFError, TypeError):
+        return {}
+
+
+def stored_matcher_code(py_func, entries: dict | None):
+    """The stored code of this kernel's matcher if it tests ``entries``' keys in their
+    order, else None (``matcher`` then compiles it)."""
+    stored = _loaded.get("matchers", {}).get(_name(py_func))
+    return stored[1] if stored is not None and entries and stored[0] == tuple(entries) \
+        else None
 
 
 # ---- the table: "module.function(type, type, ...)", one line per compiled signature
@@ -250,14 +303,19 @@ def _entries() -> dict:
                         _loaded["entries"].setdefault((mod, function), {})[key] = \
                             getattr(module, export)
                     _loaded["folder"] = folder
+                    _loaded["matchers"] = _stored_matchers(folder)
                     break
     return _loaded["entries"]
 
 
 def compiled_entry(py_func) -> dict | None:
     """The compiled variants of a kernel by argument key, or None where there are none."""
-    module = py_func.__module__.rpartition(".")[2]
-    return _entries().get((module, py_func.__name__))
+    return _entries().get(_name(py_func))
+
+
+def _name(py_func) -> tuple[str, str]:
+    """(module, function) of a kernel of this package, as the table names it."""
+    return py_func.__module__.rpartition(".")[2], py_func.__name__
 
 
 def compiled_folder() -> Path | None:

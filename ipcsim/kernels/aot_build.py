@@ -4,7 +4,8 @@
 
 compiles the serial variant of every (kernel, argument types) of signatures.txt into
 OUT_FOLDER/_compiled*.so with numba's ahead-of-time compiler (numba.pycc), and writes
-OUT_FOLDER/_compiled.json; setup.py runs it when ipcsim is installed.
+OUT_FOLDER/_compiled.json and the compiled code of each kernel's argument matcher,
+OUT_FOLDER/_compiled.matchers; setup.py runs it when ipcsim is installed.
 (``tools/kernel_signatures.py`` writes signatures.txt from the calls scenes make.)
 
 Each export is a one-line function that calls the kernel's numba dispatcher, so the kernel
@@ -70,6 +71,7 @@ def build(out_folder: Path, verbose: bool = False) -> Path:
         cc.target_cpu = "host" if aot.cpu_features() else ""
         cc.verbose = verbose
         exports = []
+        kernels = {}  # (module, function) -> its argument keys, in export order
         for i, (module, function, key) in enumerate(aot.read_table()):
             dispatcher = _dispatcher(module, function)
             argtypes = tuple(_numba_type(k) for k in key)
@@ -80,7 +82,9 @@ def build(out_folder: Path, verbose: bool = False) -> Path:
             exports.append([module, function, export,
                             ", ".join(aot.format_key(k) for k in key),
                             [aot.key_to_json(k) for k in key]])
+            kernels.setdefault((module, function), []).append(key)
         cc.compile()
+    aot.store_matchers(out_folder, kernels)
     manifest = {"sources": aot.sources_digest(), "machine": platform.machine(),
                 "cpu_features": aot.cpu_features() if cc.target_cpu else [],
                 "numba": numba_module().__version__, "module_file": cc.output_file,

@@ -11,6 +11,7 @@ import os
 import platform
 import subprocess
 import sys
+import types
 
 import numpy as np
 import pytest
@@ -119,6 +120,49 @@ def test_the_generated_matcher_answers_as_the_keyed_lookup():
                 checked += 1
     assert checked > 1000
     assert aot.matcher(None)((np.zeros(3),)) is None
+
+
+def test_stored_matchers_answer_as_the_ones_compiled_at_the_first_call(tmp_path,
+                                                                          monkeypatch):
+    """The build stores each kernel's matcher code (``store_matchers``); a matcher made
+    from it answers every signature and near miss as one compiled on the spot, and the
+    stored code is used only for entries with the same keys in the same order."""
+    rng = np.random.default_rng(7)
+    kernels = {}
+    for module, function, key in aot.read_table():
+        kernels.setdefault((module, function), []).append(key)
+    aot.store_matchers(tmp_path, kernels)
+    stored = aot._stored_matchers(tmp_path)
+    assert set(stored) == set(kernels)
+    monkeypatch.setitem(aot._loaded, "matchers", stored)
+    for (module, function), keys in kernels.items():
+        py_func = types.SimpleNamespace(__module__=f"ipcsim.kernels.{module}",
+                                        __name__=function)
+        entries = {key: object() for key in keys}
+        code = aot.stored_matcher_code(py_func, entries)
+        assert code is not None
+        from_store, compiled = aot.matcher(entries, code), aot.matcher(entries)
+        for key, function_ in entries.items():
+            args = tuple(_value_of(k, rng) for k in key)
+            assert from_store(args) is compiled(args) is function_
+            for other in _near_misses(args):
+                assert from_store(other) is compiled(other)
+        if len(keys) > 1:  # another order: the stored code would return the wrong one
+            assert aot.stored_matcher_code(py_func, dict(reversed(entries.items()))) is None
+    other = types.SimpleNamespace(__module__="ipcsim.kernels.none", __name__="none")
+    assert aot.stored_matcher_code(other, {(("float64", 1),): len}) is None
+
+
+def test_matchers_stored_by_another_python_are_not_read(tmp_path):
+    aot.store_matchers(tmp_path, {("m", "f"): [(("float64", 1),)]})
+    assert set(aot._stored_matchers(tmp_path)) == {("m", "f")}
+    path = tmp_path / aot.MATCHERS
+    path.write_bytes(b"\x00\x00\r\n" + path.read_bytes()[4:])  # another bytecode magic
+    assert aot._stored_matchers(tmp_path) == {}
+    aot.store_matchers(tmp_path, {("m", "f"): [(("float64", 1),)]})
+    path.write_bytes(path.read_bytes()[:40])  # cut short
+    assert aot._stored_matchers(tmp_path) == {}
+    assert aot._stored_matchers(tmp_path / "none") == {}
 
 
 def test_every_table_line_reads_back_as_written():
@@ -291,6 +335,7 @@ def test_a_kernels_matcher_is_made_at_its_first_call():
     leaves that matcher in its place for the calls after it."""
     class Owner:
         compiled = {(("float64", 1),): len}
+        py_func = types.SimpleNamespace(__module__="ipcsim.kernels.none", __name__="none")
 
     owner = Owner()
     owner.match = aot.match_on_first_call(owner)
