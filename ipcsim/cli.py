@@ -24,7 +24,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from . import __version__  # noqa: E402  (numpy loads later, after the BLAS setting)
 from .errors import IpcsimError, SceneError, excerpt, one_line  # noqa: E402
-from .start_up import pause_collector, resume_collector  # noqa: E402
+from .start_up import end_process, pause_collector, resume_collector  # noqa: E402
 
 
 def _cmd_check(args) -> int:
@@ -283,11 +283,13 @@ def main(argv: list[str] | None = None) -> int:
 def console() -> NoReturn:
     """The ``ipcsim`` command (and ``python -m ipcsim``): ``main`` as a process.
 
-    The interpreter's exit ends with a full pass of the cycle collector over every object
-    left (numpy's, the modules', the run's): 17 of a tiny scene's 24 ms of exit, which
-    find nothing to finalise, since every file a command writes is closed before ``main``
-    returns. So the objects are frozen out of that pass (``gc.freeze``); only a process
-    that ends here does it (tests call ``main`` many times in one process).
+    Every file a command writes is closed before ``main`` returns, so the process then
+    ends without the interpreter's teardown (``start_up.end_process``). Where that
+    teardown must run (an exit handler, a thread), it would end with a full pass of the
+    cycle collector over every object left (numpy's, the modules', the run's), 17 of a
+    tiny scene's 24 ms of exit, which finds nothing to finalise: so the objects are
+    frozen out of that pass first (``gc.freeze``). Only a process that ends here does
+    either (tests call ``main`` many times in one process).
 
     The collector is also paused while the modules load and the scene is built
     (``ipcsim.start_up``)."""
@@ -297,7 +299,7 @@ def console() -> NoReturn:
     finally:
         resume_collector()  # where the command ended before a run's first step
     gc.freeze()
-    sys.exit(status)
+    end_process(status)
 
 
 if __name__ == "__main__":

@@ -4,6 +4,7 @@ implemented yet, and `ipcsim check --frames` on the written frames."""
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 
@@ -57,22 +58,57 @@ def test_run_writes_the_output_folder(drop_scene, tmp_path, capsys):
     assert "below a plane" in capsys.readouterr().out
 
 
+def _exit_by_raising(status):
+    """``end_process`` in a test's process: the exit it asks for, as ``sys.exit`` gives
+    it (``os._exit`` would end the tests)."""
+    raise SystemExit(status)
+
+
 def test_the_command_exits_with_mains_status_and_frozen_objects(monkeypatch):
-    """``console`` (the ``ipcsim`` script, ``python -m ipcsim``) exits with what ``main``
-    returned, having frozen the objects left out of the exit's collector pass, and with
-    the collector running again even where ``main`` did not resume it."""
+    """``console`` (the ``ipcsim`` script, ``python -m ipcsim``) ends the process with
+    what ``main`` returned, having frozen the objects left out of the exit's collector
+    pass, and with the collector running again even where ``main`` did not resume it."""
     import ipcsim.cli as cli
 
     calls = []
     monkeypatch.setattr(cli, "main", lambda: calls.append("main") or 3)
     monkeypatch.setattr(cli.gc, "freeze", lambda: calls.append("freeze"))
+    monkeypatch.setattr(cli, "end_process",
+                        lambda status: calls.append("end") or _exit_by_raising(status))
     try:
         with pytest.raises(SystemExit) as exit_info:
             cli.console()
-        assert exit_info.value.code == 3 and calls[0] == "main" and calls[-1] == "freeze"
+        assert exit_info.value.code == 3 and calls[0] == "main"
+        assert calls[-2:] == ["freeze", "end"]
         assert cli.gc.isenabled()
     finally:
         cli.gc.enable()
+
+
+@pytest.mark.parametrize("waiting", ["nothing", "an exit handler", "a thread"])
+def test_the_process_ends_with_its_status_and_its_output_whatever_waits(waiting):
+    """``end_process`` flushes what was printed (block-buffered into a pipe) and exits
+    with the status; an exit handler or a thread still running is waited for, as the
+    interpreter's own exit does."""
+    code = ("import atexit, sys, threading, time\n"
+            "from ipcsim.start_up import end_process\n"
+            "print('printed', end='')\n"
+            "sys.stderr.write('said')\n"
+            f"waiting = {waiting!r}\n"
+            "if waiting == 'an exit handler':\n"
+            "    atexit.register(lambda: print(' handled', end=''))\n"
+            "if waiting == 'a thread':\n"
+            "    threading.Thread(target=lambda: (time.sleep(0.2), print(' joined', end=''))"
+            ").start()\n"
+            "end_process(3)\n"
+            "print(' after')\n")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=env, timeout=60)
+    assert done.returncode == 3
+    assert done.stderr == "said"
+    assert done.stdout == {"nothing": "printed", "an exit handler": "printed handled",
+                           "a thread": "printed joined"}[waiting]
 
 
 def _console_with(monkeypatch, argv, seen: dict):
@@ -103,6 +139,7 @@ def _console_with(monkeypatch, argv, seen: dict):
         patch.setattr(Simulation, "step", step)
         patch.setattr(cli, "_cmd_check", check)
         patch.setattr(gc, "freeze", lambda: None)  # leave pytest's objects collectable
+        patch.setattr(cli, "end_process", _exit_by_raising)
         try:
             with pytest.raises(SystemExit) as exit_info:
                 cli.console()
