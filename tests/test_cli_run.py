@@ -4,7 +4,6 @@ implemented yet, and `ipcsim check --frames` on the written frames."""
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
 
@@ -83,32 +82,6 @@ def test_the_command_exits_with_mains_status_and_frozen_objects(monkeypatch):
         assert cli.gc.isenabled()
     finally:
         cli.gc.enable()
-
-
-@pytest.mark.parametrize("waiting", ["nothing", "an exit handler", "a thread"])
-def test_the_process_ends_with_its_status_and_its_output_whatever_waits(waiting):
-    """``end_process`` flushes what was printed (block-buffered into a pipe) and exits
-    with the status; an exit handler or a thread still running is waited for, as the
-    interpreter's own exit does."""
-    code = ("import atexit, sys, threading, time\n"
-            "from ipcsim.start_up import end_process\n"
-            "print('printed', end='')\n"
-            "sys.stderr.write('said')\n"
-            f"waiting = {waiting!r}\n"
-            "if waiting == 'an exit handler':\n"
-            "    atexit.register(lambda: print(' handled', end=''))\n"
-            "if waiting == 'a thread':\n"
-            "    threading.Thread(target=lambda: (time.sleep(0.2), print(' joined', end=''))"
-            ").start()\n"
-            "end_process(3)\n"
-            "print(' after')\n")
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          env=env, timeout=60)
-    assert done.returncode == 3
-    assert done.stderr == "said"
-    assert done.stdout == {"nothing": "printed", "an exit handler": "printed handled",
-                           "a thread": "printed joined"}[waiting]
 
 
 def _console_with(monkeypatch, argv, seen: dict):

@@ -1,9 +1,15 @@
-"""ipcsim/start_up.py: the cycle collector paused while the ``ipcsim`` process starts."""
+"""ipcsim/start_up.py: the cycle collector paused while the ``ipcsim`` process starts,
+and the process ended without the interpreter's teardown."""
 
 from __future__ import annotations
 
 import gc
+import os
+import subprocess
+import sys
 import weakref
+
+import pytest
 
 from ipcsim import start_up
 
@@ -76,3 +82,29 @@ def test_loading_numba_ends_the_pause(monkeypatch):
         assert jit.numba_module().__name__ == "numba" and gc.isenabled()
     finally:
         gc.enable()
+
+
+@pytest.mark.parametrize("waiting", ["nothing", "an exit handler", "a thread"])
+def test_the_process_ends_with_its_status_and_its_output_whatever_waits(waiting):
+    """``end_process`` flushes what was printed (block-buffered into a pipe) and exits
+    with the status; an exit handler or a thread still running is waited for, as the
+    interpreter's own exit does."""
+    code = ("import atexit, sys, threading, time\n"
+            "from ipcsim.start_up import end_process\n"
+            "print('printed', end='')\n"
+            "sys.stderr.write('said')\n"
+            f"waiting = {waiting!r}\n"
+            "if waiting == 'an exit handler':\n"
+            "    atexit.register(lambda: print(' handled', end=''))\n"
+            "if waiting == 'a thread':\n"
+            "    threading.Thread(target=lambda: (time.sleep(0.2), print(' joined', end=''))"
+            ").start()\n"
+            "end_process(3)\n"
+            "print(' after')\n")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=env, timeout=60)
+    assert done.returncode == 3
+    assert done.stderr == "said"
+    assert done.stdout == {"nothing": "printed", "an exit handler": "printed handled",
+                           "a thread": "printed joined"}[waiting]
