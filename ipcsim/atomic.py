@@ -50,7 +50,7 @@ def is_temporary_name(name: str) -> bool:
     return bool(sep) and pid.isdigit()
 
 
-def _fsync_file(path: Path) -> None:
+def _fsync_file(path: StrPath) -> None:
     fd = os.open(path, os.O_RDWR)  # Windows refuses fsync on a read-only handle
     try:
         os.fsync(fd)
@@ -58,7 +58,7 @@ def _fsync_file(path: Path) -> None:
         os.close(fd)
 
 
-def _fsync_folder(folder: Path) -> None:
+def _fsync_folder(folder: StrPath) -> None:
     # Makes the rename itself durable; folders cannot be opened this way on Windows.
     if os.name != "posix":
         return
@@ -81,15 +81,17 @@ def sync_to_disk(paths) -> None:
     Many files (a run's frames since its last checkpoint) go by one ``syncfs`` of each
     file system they are on, where the system has it (Linux): an fsync costs 0.1–5 ms
     each, which for a frame per step was a tenth of a small scene's run; a few go by
-    one fsync each (``syncfs`` also waits for whatever else is unwritten there)."""
-    paths = [Path(path) for path in paths]
-    if len(paths) > SYNCFS_ABOVE and _syncfs({path.parent for path in paths}):
+    one fsync each (``syncfs`` also waits for whatever else is unwritten there). Paths
+    stay strings: a ``Path`` and its parent for each of a run's 200 frames took a
+    millisecond."""
+    paths = [os.fspath(path) for path in paths]
+    if len(paths) > SYNCFS_ABOVE and _syncfs({os.path.dirname(p) or "." for p in paths}):
         return
     folders = set()
     for path in paths:
-        if path.is_file():
+        if os.path.isfile(path):
             _fsync_file(path)
-            folders.add(path.parent)
+            folders.add(os.path.dirname(path) or ".")
     for folder in folders:
         _fsync_folder(folder)
 

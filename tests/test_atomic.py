@@ -1,6 +1,7 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import pytest
 
@@ -96,12 +97,14 @@ def test_sync_to_disk_uses_one_syncfs_for_many_files(tmp_path, monkeypatch, sync
     calls = {"syncfs": [], "fsync": [], "folder": []}
     monkeypatch.setattr(atomic, "_syncfs",
                         lambda folders: calls["syncfs"].append(sorted(folders)) or syncfs_works)
-    monkeypatch.setattr(atomic, "_fsync_file", lambda path: calls["fsync"].append(path.name))
-    monkeypatch.setattr(atomic, "_fsync_folder", lambda folder: calls["folder"].append(folder))
+    monkeypatch.setattr(atomic, "_fsync_file",
+                        lambda path: calls["fsync"].append(os.path.basename(path)))
+    monkeypatch.setattr(atomic, "_fsync_folder",
+                        lambda folder: calls["folder"].append(Path(folder)))
     few = [atomic_write_bytes(tmp_path / f"few{i}", b"x", fsync=False)
            for i in range(atomic.SYNCFS_ABOVE)]
     sync_to_disk(few + [tmp_path / "gone"])
-    assert calls["syncfs"] == [[tmp_path]]  # nine paths: more than SYNCFS_ABOVE
+    assert calls["syncfs"] == [[str(tmp_path)]]  # nine paths: more than SYNCFS_ABOVE
     calls = {key: [] for key in calls}
     sync_to_disk(few)
     assert calls["syncfs"] == []
@@ -109,7 +112,7 @@ def test_sync_to_disk_uses_one_syncfs_for_many_files(tmp_path, monkeypatch, sync
     calls = {key: [] for key in calls}
     many = few + [atomic_write_bytes(tmp_path / "one more", b"x", fsync=False)]
     sync_to_disk(many)
-    assert calls["syncfs"] == [[tmp_path]]
+    assert calls["syncfs"] == [[str(tmp_path)]]
     assert calls["fsync"] == ([] if syncfs_works else [path.name for path in many])
 
 
