@@ -13,7 +13,7 @@ itself is never paused.
 
 When ``main`` has returned, every file the command wrote is closed: what the interpreter
 does after that (freeing each object, tearing down each module) changes nothing on disk
-yet took 15 ms of a tiny scene's 0.28 s run. :func:`end_process` leaves it out where
+yet took about 7 ms of a tiny scene's 0.28 s run. :func:`end_process` leaves it out where
 nothing else is waiting for the exit.
 """
 
