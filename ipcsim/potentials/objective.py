@@ -190,7 +190,10 @@ class StepObjective:
             self._adapt_stiffness(values, contacts)
         kappa = self.stiffness.kappa
         hessian = values.hessian(kappa) if order >= 2 else None
-        values = replace(values, hessians=None)  # held by ``hessian`` alone
+        if values.hessians is not None:  # held by ``hessian`` alone from here
+            # a copy starts without the values read above (a cached property): order 0
+            # has no Hessians to drop, and copying there summed the energy again
+            values = replace(values, hessians=None)
         return Evaluation(x, values, kappa, contacts,
                           values.gradient(kappa) if order >= 1 else None, hessian)
 

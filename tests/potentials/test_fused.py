@@ -202,3 +202,19 @@ def test_a_steps_final_energy_comes_from_its_line_search(tmp_path, monkeypatch, 
     rows = [sim.step().row for _ in range(10)]
     assert len(calls) == 0
     assert all(np.isfinite(r["energy"]) and r["elastic_energy"] >= 0.0 for r in rows)
+
+
+def test_an_evaluations_energy_sums_each_terms_value_once(tmp_path, monkeypatch):
+    """Where the terms are evaluated one by one (a scene too large to fuse), the values
+    ``evaluate(x, 0)`` reads are those its energy and the logs read after it: Newton's
+    final evaluation of each step computes each term once."""
+    sim = simulation(tmp_path, VARIANTS["backward Euler, friction"])
+    sim.potential = termwise(sim.potential)
+    elasticity = sim.potential.term("elasticity")
+    calls = []
+    value = type(elasticity).value
+    monkeypatch.setattr(type(elasticity), "value",
+                        lambda self, x, ctx: (calls.append(1), value(self, x, ctx))[1])
+    evaluation = sim.objective(sim.state).evaluate(sim.state.x, 0)
+    assert np.isfinite(evaluation.energy) and evaluation.values.value_of("elasticity") >= 0.0
+    assert len(calls) == 1
