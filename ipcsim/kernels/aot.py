@@ -27,7 +27,6 @@ import hashlib
 import itertools
 import json
 import os
-import platform
 import sys
 from pathlib import Path
 
@@ -250,6 +249,16 @@ def sources_digest() -> str:
     return h.hexdigest()
 
 
+def machine() -> str:
+    """``platform.machine()`` (x86_64, aarch64): from ``uname`` where the system has it,
+    as ``platform`` itself answers; that module costs 1.3 ms of every start to import."""
+    if hasattr(os, "uname"):
+        return os.uname().machine
+    import platform
+
+    return platform.machine()
+
+
 def cpu_features() -> list[str]:
     """This CPU's feature flags (Linux), sorted; empty where the system does not say."""
     try:
@@ -278,7 +287,7 @@ def _usable(folder: Path) -> dict | None:
     except (OSError, ValueError):
         return None
     if manifest.get("sources") != sources_digest() \
-            or manifest.get("machine") != platform.machine() \
+            or manifest.get("machine") != machine() \
             or not set(manifest.get("cpu_features", [])) <= set(cpu_features()):
         return None
     return manifest

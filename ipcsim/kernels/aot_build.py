@@ -21,7 +21,6 @@ import argparse
 import importlib
 import json
 import os
-import platform
 import sys
 import tempfile
 import time
@@ -85,7 +84,7 @@ def build(out_folder: Path, verbose: bool = False) -> Path:
             kernels.setdefault((module, function), []).append(key)
         cc.compile()
     aot.store_matchers(out_folder, kernels)
-    manifest = {"sources": aot.sources_digest(), "machine": platform.machine(),
+    manifest = {"sources": aot.sources_digest(), "machine": aot.machine(),
                 "cpu_features": aot.cpu_features() if cc.target_cpu else [],
                 "numba": numba_module().__version__, "module_file": cc.output_file,
                 "exports": exports}
