@@ -92,7 +92,10 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {one_line(message)} (see {self.prog} --help)\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The ``ipcsim`` parser; given ``command``, only that command's options are added
+    (every command is still listed): argparse makes a help formatter for each option
+    it adds, and a run paid a millisecond for the options of the other five."""
     parser = _Parser(
         prog="ipcsim",
         description="Incremental Potential Contact simulator driven by scene files "
@@ -104,19 +107,24 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"ipcsim {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    _add_check(sub)
-    _add_run(sub)
-    _add_sweep(sub)
-    _add_convert(sub)
-    _add_render(sub)
-    _add_compare(sub)
+    for name, add in _COMMANDS.items():
+        add(sub, options=command in (None, name))
     return parser
 
 
-def _add_check(sub) -> None:
+def _command_in(argv: list[str]) -> str | None:
+    """The command ``argv`` names (its first word that is not an option), if it is one:
+    ``ipcsim`` itself has no option that takes a value."""
+    word = next((a for a in argv if not a.startswith("-")), None)
+    return word if word in _COMMANDS else None
+
+
+def _add_check(sub, options: bool = True) -> None:
     p = sub.add_parser("check", help="read a scene, build its model and print what it "
                        "contains (refusing what run refuses); or verify a run's frames "
                        "(--frames)")
+    if not options:
+        return
     p.add_argument("scene", nargs="?", help="scene file (.txt or .toml)")
     p.add_argument("--frames", metavar="OUT",
                    help="check every frame of the run in OUT for intersections and inverted "
@@ -132,7 +140,7 @@ def _add_set(p) -> None:
                         "repeatable; the resolved scene.toml records it")
 
 
-def _add_run(sub) -> None:
+def _add_run(sub, options: bool = True) -> None:
     p = sub.add_parser("run", help="simulate a scene and write frames and logs",
                        description="Simulate a scene and write frames and logs. Shows a "
                        "progress bar on a terminal and a line every 5 % of the steps (or "
@@ -140,6 +148,8 @@ def _add_run(sub) -> None:
                        "130); --resume continues. Exit status: 0 done, 2 bad input or an "
                        "output folder that cannot be used or written, 3 the simulation "
                        "failed (NaN, solver), 130 interrupted.")
+    if not options:
+        return
     p.add_argument("scene", help="scene file (.txt or .toml)")
     _add_set(p)
     p.add_argument("-o", "--output", metavar="DIR",
@@ -165,7 +175,7 @@ def _add_run(sub) -> None:
     p.set_defaults(func=_cmd_run)
 
 
-def _add_sweep(sub) -> None:
+def _add_sweep(sub, options: bool = True) -> None:
     p = sub.add_parser("sweep", help="run a study: many runs of a scene with values varied, "
                        "on a Dask cluster; writes study.csv and a chart",
                        description="Run a study file: its runs on a local Dask cluster of "
@@ -175,6 +185,8 @@ def _add_sweep(sub) -> None:
                        "finished runs and resumes interrupted ones. Exit status: 0 all runs "
                        "finished, 1 some runs failed, 2 bad input or Dask missing, 130 "
                        "interrupted.")
+    if not options:
+        return
     p.add_argument("study", help="study file (.toml)")
     p.add_argument("-o", "--output", metavar="DIR",
                    help="study folder (default: [study] output, else output/<study-stem>)")
@@ -189,17 +201,21 @@ def _add_sweep(sub) -> None:
     p.set_defaults(func=_cmd_sweep)
 
 
-def _add_convert(sub) -> None:
+def _add_convert(sub, options: bool = True) -> None:
     p = sub.add_parser("convert", help="convert a scene between the text and TOML forms")
+    if not options:
+        return
     p.add_argument("source", help="scene to read (.txt or .toml)")
     p.add_argument("target", help="scene to write (.txt or .toml); not the source itself")
     p.add_argument("--overwrite", action="store_true", help="replace an existing target")
     p.set_defaults(func=_cmd_convert)
 
 
-def _add_render(sub) -> None:
+def _add_render(sub, options: bool = True) -> None:
     p = sub.add_parser("render", help="draw a run's frames off screen as PNGs "
                        "(and optionally a GIF or MP4)")
+    if not options:
+        return
     p.add_argument("folder", metavar="OUT", help="output folder of a run")
     p.add_argument("--every", type=_positive_int, default=1, metavar="K",
                    help="render every K-th of the selected frames (default 1)")
@@ -224,9 +240,11 @@ def _add_render(sub) -> None:
     p.set_defaults(func=_cmd_render)
 
 
-def _add_compare(sub) -> None:
+def _add_compare(sub, options: bool = True) -> None:
     p = sub.add_parser("compare", help="compare two runs' frames and logs (exit 0 same, "
                        "1 different, 2 cannot compare)")
+    if not options:
+        return
     p.add_argument("a", metavar="A", help="output folder of the reference run")
     p.add_argument("b", metavar="B", help="output folder of the other run, a folder of "
                    "the original IPC program's <n>.obj files, or a golden reference .json "
@@ -240,13 +258,17 @@ def _add_compare(sub) -> None:
     p.set_defaults(func=_cmd_compare)
 
 
+_COMMANDS = {"check": _add_check, "run": _add_run, "sweep": _add_sweep,
+             "convert": _add_convert, "render": _add_render, "compare": _add_compare}
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """Python warnings (from libraries or the simulation) as one line each."""
     print(f"warning: {one_line(message)}", file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+    parser = build_parser(_command_in(sys.argv[1:] if argv is None else argv))
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # --help, --version, or a usage error (already printed)

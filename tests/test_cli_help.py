@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import re
 
+from ipcsim import cli
 from ipcsim.cli import build_parser
 
 
@@ -30,3 +31,31 @@ def test_readme_command_table_matches_the_parser(repo_root):
                        and "--help" not in a.option_strings
                        and not set(a.option_strings) & named]
             assert missing == [], (name, missing)
+
+
+def test_a_commands_own_parser_reads_its_arguments_as_the_whole_parser_does():
+    """``main`` builds only the named command's options (``build_parser(command)``):
+    its arguments read the same as with every command's options, and every command is
+    still listed."""
+    examples = {
+        "check": ["check", "s.txt", "--set", "time.dt=0.01"],
+        "run": ["run", "s.txt", "-o", "out", "--overwrite", "--steps", "3", "-q"],
+        "sweep": ["sweep", "study.toml", "--serial"],
+        "convert": ["convert", "a.txt", "b.toml", "--overwrite"],
+        "render": ["render", "out", "--every", "2", "--size", "640", "480", "--gif"],
+        "compare": ["compare", "a", "b", "--rtol", "1e-3"],
+    }
+    assert set(examples) == set(_subparsers())
+    for name, argv in examples.items():
+        assert cli._command_in(argv) == name
+        own = build_parser(cli._command_in(argv))
+        assert set(next(a for a in own._actions if a.dest == "command").choices) \
+            == set(examples)
+        assert vars(own.parse_args(argv)) == vars(build_parser().parse_args(argv))
+
+
+def test_no_command_or_an_unknown_one_gets_every_commands_options():
+    assert cli._command_in([]) is None
+    assert cli._command_in(["--version"]) is None
+    assert cli._command_in(["rn", "s.txt"]) is None  # argparse names the choices
+    assert cli._command_in(["-h", "run"]) == "run"
