@@ -166,6 +166,7 @@ class _Run(Struct):
     render: bool = False
     first_step: int = 0  # the checkpoint's step when resuming
     frames: object = None
+    step_log: object = None  # steps.csv, once opened (its totals go to run.json)
     renderer: object = None
     warned: int = 0  # steps that did not converge, in this call
     newton_total: int = 0  # Newton iterations, in this call
@@ -268,8 +269,8 @@ def _open_output(run: _Run):
     else:
         _write_frame(run, 0)
         _checkpoint(run)
-    return (StepLog(out / StepLog.FILE_NAME, keep_rows=keep),
-            NewtonLog(out / NewtonLog.FILE_NAME, keep_rows=keep))
+    run.step_log = StepLog(out / StepLog.FILE_NAME, keep_rows=keep)
+    return run.step_log, NewtonLog(out / NewtonLog.FILE_NAME, keep_rows=keep)
 
 
 def _warn_about(run: _Run, row: dict, k: int) -> None:
@@ -386,7 +387,6 @@ def _run_info(run: _Run, status: int, failure, wall0: float, started: str) -> No
     """Write run.json: this call's facts, with the totals of the whole run."""
     import json
 
-    from .io.csv_log import StepLog, read_csv
     from .io.run_info import RUN_INFO_NAME, now_iso, peak_memory_mb, write_run_info
     from .kernels import aot
     from .kernels.compiling import compile_seconds
@@ -413,13 +413,12 @@ def _run_info(run: _Run, status: int, failure, wall0: float, started: str) -> No
             info["started"] = before.get("started") or started
         except (OSError, ValueError, TypeError, AttributeError):
             pass
-    logged = read_csv(out / StepLog.FILE_NAME)  # totals of the kept and the new steps
-    converged = logged.get("converged", np.ones(0))
+    logged = run.step_log.totals  # of the kept and the new steps
     info.update(finished=now_iso(), wall_s=wall, peak_memory_mb=peak_memory_mb(),
                 steps_done=run.sim.state.step,
-                newton_iterations=int(np.sum(logged.get("newton_iterations", 0))),
-                steps_hitting_iteration_cap=int(np.sum(logged.get("hit_iteration_cap", 0))),
-                steps_not_converged=int(np.sum(converged == 0)),
+                newton_iterations=logged["newton_iterations"],
+                steps_hitting_iteration_cap=logged["hit_iteration_cap"],
+                steps_not_converged=logged["not_converged"],
                 status="ok" if status == 0 else failure,
                 outcome=run.sim.outcome if status in (0, 3) else failure)
     write_run_info(out, info)

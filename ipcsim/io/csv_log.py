@@ -194,12 +194,40 @@ class CsvLog:
 
 
 class StepLog(CsvLog):
-    """``steps.csv``: one row per time step, columns :data:`STEP_COLUMNS`."""
+    """``steps.csv``: one row per time step, columns :data:`STEP_COLUMNS`.
+
+    ``totals`` sums the file's rows (those a resumed run kept, and those appended):
+    Newton iterations, steps that hit the iteration cap, steps that did not converge;
+    run.json's totals, without reading the file back (2 ms of a tiny scene's run)."""
 
     FILE_NAME = "steps.csv"
 
     def __init__(self, path: str | os.PathLike, *, fsync: bool = False, keep_rows=None):
-        super().__init__(path, STEP_COLUMNS, fsync=fsync, keep_rows=keep_rows)
+        self.totals = {"newton_iterations": 0, "hit_iteration_cap": 0, "not_converged": 0}
+        kept = None
+        if keep_rows is not None:
+            def kept(cells):  # cells: column -> text
+                if not keep_rows(cells):
+                    return False
+                self._add_to_totals(*(int(cells[c]) if cells[c] else None
+                                      for c in _TOTALLED))
+                return True
+        super().__init__(path, STEP_COLUMNS, fsync=fsync, keep_rows=kept)
+
+    def append_rows(self, rows) -> None:
+        rows = tuple(rows)
+        super().append_rows(rows)
+        for row in rows:
+            self._add_to_totals(*map(row.get, _TOTALLED))
+
+    def _add_to_totals(self, iterations, hit_cap, converged) -> None:
+        """One row's part of the totals; an empty cell (None) adds nothing."""
+        self.totals["newton_iterations"] += int(iterations or 0)
+        self.totals["hit_iteration_cap"] += int(hit_cap or 0)
+        self.totals["not_converged"] += int(converged is not None and not converged)
+
+
+_TOTALLED = ("newton_iterations", "hit_iteration_cap", "converged")  # StepLog's totals
 
 
 class NewtonLog(CsvLog):

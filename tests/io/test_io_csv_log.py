@@ -133,3 +133,34 @@ def test_any_double_round_trips(tmp_path_factory, values):
     assert back.dtype == np.float64
     # bit-exact, including the sign of zero
     assert back.tobytes() == np.array(values, dtype=np.float64).tobytes()
+
+
+def _totals_read_back(path):
+    """run.json's totals as the file holds them (how they were taken before StepLog
+    kept them)."""
+    data = read_csv(path)
+    converged = data["converged"]
+    return {"newton_iterations": int(np.nansum(data["newton_iterations"])),
+            "hit_iteration_cap": int(np.nansum(data["hit_iteration_cap"])),
+            "not_converged": int(np.sum(converged == 0))}
+
+
+def test_step_log_totals_are_those_of_its_rows_kept_and_appended(tmp_path):
+    path = tmp_path / "steps.csv"
+    rows = [{"step": k, "newton_iterations": k + 2, "converged": k != 3,
+             "hit_iteration_cap": int(k == 3)} for k in range(1, 6)]
+    rows[1] = {"step": 2}  # cells left empty count for nothing
+    with StepLog(path) as log:
+        log.append(rows[0])
+        log.append_rows(rows[1:])
+    assert log.totals == _totals_read_back(path) == {
+        "newton_iterations": 3 + 5 + 6 + 7, "hit_iteration_cap": 1, "not_converged": 1}
+
+    # a resumed run keeps steps 1..3 and appends a new step 4
+    with StepLog(path, keep_rows=lambda cells: int(cells["step"]) <= 3) as log:
+        assert log.totals == {"newton_iterations": 3 + 5, "hit_iteration_cap": 1,
+                              "not_converged": 1}
+        log.append({"step": 4, "newton_iterations": 10, "converged": np.bool_(False),
+                    "hit_iteration_cap": np.int64(1)})
+    assert log.totals == _totals_read_back(path) == {
+        "newton_iterations": 18, "hit_iteration_cap": 2, "not_converged": 2}
