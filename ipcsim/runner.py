@@ -304,7 +304,7 @@ def _checkpoint(run: _Run, logs=()) -> None:
 
 def _step_loop(run: _Run, step_log, newton_log, progress, stop) -> None:
     """Steps until the last one; KeyboardInterrupt once a Ctrl-C'd step is saved."""
-    sim, n_steps = run.sim, run.n_steps
+    sim, n_steps, every = run.sim, run.n_steps, run.every
     while sim.state.step < n_steps:
         report = sim.step()
         row = report.row
@@ -316,7 +316,7 @@ def _step_loop(run: _Run, step_log, newton_log, progress, stop) -> None:
         for note in report.notes:  # the baselines' intersecting states
             run.reporter.warn(f"warning: step {k}: {note}")
         stopping = stop.requested and k < n_steps  # read once: Ctrl-C may come now
-        framed = k % run.every == 0 or k == n_steps
+        framed = k % every == 0 or k == n_steps
         if framed:
             _write_frame(run, k)
         due = framed and time.perf_counter() - run.checkpointed >= CHECKPOINT_SECONDS

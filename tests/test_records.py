@@ -57,3 +57,21 @@ def test_every_provenance_field_is_a_field():
             if isinstance(cls, type) and issubclass(cls, ByMeaning) and cls is not ByMeaning:
                 assert cls.provenance and set(cls.provenance) <= set(cls.__struct_fields__), cls
                 assert cls.__struct_config__.frozen, cls
+
+
+def test_same_bits_is_array_equal_where_the_bits_say_it():
+    from ipcsim.records import same_bits
+
+    x = np.arange(12.0).reshape(4, 3)
+    assert same_bits(x, x.copy())
+    assert same_bits(x[:, :2], np.ascontiguousarray(x[:, :2]))  # views compare by value
+    y = x.copy()
+    y[2, 1] = np.nextafter(y[2, 1], np.inf)
+    assert not same_bits(x, y)
+    assert not same_bits(x, x.reshape(3, 4))  # same bits, another shape
+    assert not same_bits(x, x.astype(np.float32))
+    assert not same_bits(np.zeros(3, bool), np.zeros(3, np.uint8))
+    mask = np.array([True, False, True])
+    assert same_bits(mask, mask.copy()) and not same_bits(mask, ~mask)
+    # equal values in other bits only miss the cache
+    assert not same_bits(np.array([0.0]), np.array([-0.0]))

@@ -68,21 +68,26 @@ def now_iso() -> str:
     return _dt.datetime.now().astimezone().isoformat(timespec="seconds")
 
 
-def _version(dist: str) -> str | None:
-    """The installed version of distribution ``dist``, from the name of its
+def _versions(*dists: str) -> dict[str, str | None]:
+    """The installed version of each distribution, from the name of its
     ``<name>-<version>.dist-info`` folder on the import path (how installers name it,
     PEP 427) without importing the package (numba takes seconds) or importlib.metadata
-    (25 ms with the email parser it loads, a tenth of a tiny scene's start)."""
-    prefix = dist.replace("-", "_").lower() + "-"
+    (25 ms with the email parser it loads, a tenth of a tiny scene's start); each folder
+    of the path is listed once, the first found counts."""
+    prefixes = {dist: dist.replace("-", "_").lower() + "-" for dist in dists}
+    found: dict[str, str | None] = dict.fromkeys(dists)
     for entry in sys.path:
         try:
-            names = os.listdir(entry or ".")
+            names = [n for n in os.listdir(entry or ".") if n.endswith(".dist-info")]
         except OSError:
             continue
-        for name in names:
-            if name.endswith(".dist-info") and name.lower().startswith(prefix):
-                return name[len(prefix):-len(".dist-info")]
-    return None
+        for dist, prefix in prefixes.items():
+            if found[dist] is None:
+                found[dist] = next((n[len(prefix):-len(".dist-info")] for n in names
+                                    if n.lower().startswith(prefix)), None)
+        if None not in found.values():
+            break
+    return found
 
 
 def environment_info() -> dict:
@@ -93,9 +98,8 @@ def environment_info() -> dict:
         "ipcsim_version": __version__,
         "python_version": sys.version.split()[0],  # platform.python_version()'s
         "numpy_version": np.__version__,
-        "scipy_version": _version("scipy"),
-        "numba_version": _version("numba"),
-        "meshio_version": _version("meshio"),
+        **{f"{dist}_version": version
+           for dist, version in _versions("scipy", "numba", "meshio").items()},
         "platform": _platform(),
         "machine": _uname()[4],
         "processor_count": os.cpu_count(),

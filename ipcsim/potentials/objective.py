@@ -43,6 +43,7 @@ from ..contact.friction_lag import FrictionLag, lag_friction
 from ..contact.setup import ContactCount, ContactSetup
 from ..contact.stiffness import BarrierStiffness
 from ..kernels.ccd import DEFAULT_MAX_ITERATIONS, DEFAULT_MIN_GAP_FRACTION
+from ..records import same_bits
 from .base import StepContext, Triplets
 from .boundary_pull import BoundaryPull, PullSchedule
 from .fused import LineSearchResult, NewtonIterations, newton_available
@@ -428,7 +429,7 @@ class StepObjective:
         if self.contact.mesh is None:
             return None
         kept = self._collisions_at
-        if kept is not None and np.array_equal(kept[0], x):
+        if kept is not None and same_bits(kept[0], x):
             return kept[1]
         on = self._on_segment
         if on is not None and on[0] is x and on[1] is not None:

@@ -41,6 +41,7 @@ from ..errors import NonFiniteError, SolverError
 from ..kernels.fused_newton import (CONVERGED, FOLLOW_UP, ITERATION_CAP,
                                     LINE_SEARCH_FAILED)
 from ..kernels.linalg import dot
+from ..records import same_bits
 from .assembly import Assembler, DenseAssembler
 from .timing import PhaseTimer
 
@@ -137,7 +138,7 @@ class NewtonSolver:
             if dofs.kinematic is kinematic:
                 return dofs
         for i, dofs in enumerate(self._recent):
-            if np.array_equal(dofs.kinematic, kinematic):
+            if same_bits(dofs.kinematic, kinematic):
                 # each step brings a new, equal mask: found by identity from now on
                 self._recent[i] = dofs = replace(dofs, kinematic=kinematic)
                 return dofs

@@ -108,8 +108,9 @@ def test_versions_are_the_installed_distributions():
     """Read from the dist-info folders' names: what importlib.metadata reads too."""
     from importlib import metadata
 
-    from ipcsim.io.run_info import _version
+    from ipcsim.io.run_info import _versions
 
-    for dist in ("numpy", "scipy", "meshio", "tomli-w"):
-        assert _version(dist) == metadata.version(dist)
-    assert _version("no-such-distribution") is None
+    dists = ("numpy", "scipy", "meshio", "tomli-w")
+    assert _versions(*dists) == {dist: metadata.version(dist) for dist in dists}
+    assert _versions("no-such-distribution", "numpy") == {
+        "no-such-distribution": None, "numpy": metadata.version("numpy")}
