@@ -176,7 +176,7 @@ class Simulation:
         objective = self.objective(before)
         x0 = self.warm_start(objective)
         result, lag_updates = self.minimise(objective, x0, self.tolerance(before.step))
-        if not np.all(np.isfinite(result.x)):
+        if not np.isfinite(result.x).all():
             raise SolverError("positions became non-finite")
         self.state = self.advance(before, result.x, objective)
         self._collisions_at = objective.kept_collisions  # the next step starts at x
@@ -251,8 +251,9 @@ class Simulation:
         """The state after the step that ends at x_new."""
         h, ctx = self.h, objective.ctx
         v_new, a_new = self.integrator.update(x_new, before.x, before.v, before.a)
-        v_new, a_new = fix_kinematic_velocities(v_new, a_new, ctx.kinematic, x_new, before.x,
-                                                before.v, h)
+        if not self.integrator.kinematic_rates:
+            v_new, a_new = fix_kinematic_velocities(v_new, a_new, ctx.kinematic, x_new,
+                                                    before.x, before.v, h)
         dx_elastic = x_new - (before.x + h * before.v + h * h * ctx.acceleration)
         return State(x_new, v_new, a_new, before.step + 1, objective.stiffness.kappa,
                      dx_elastic, (before.step + 1) * h)

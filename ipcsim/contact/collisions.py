@@ -12,6 +12,7 @@ Toolkit's merged, weighted set: pairs farther than d̂ contribute nothing.
 
 from __future__ import annotations
 
+import math
 from functools import cached_property
 
 from msgspec import Struct
@@ -75,7 +76,8 @@ class Collisions(Struct, frozen=True, eq=False, dict=True):
         """The smallest squared distance at the positions found at (inf without pairs);
         asked by each term at each evaluation, so found once."""
         d = self.distances
-        return float(min(d.pt_d2.min(initial=np.inf), d.ee_d2.min(initial=np.inf)))
+        return min(float(d.pt_d2.min()) if len(d.pt_d2) else math.inf,
+                   float(d.ee_d2.min()) if len(d.ee_d2) else math.inf)
 
     def count(self, dhat: float) -> MeshContactCount:
         """Active pairs and the smallest distance (needs the distances)."""

@@ -58,6 +58,14 @@ def _step_rotation(angular_velocity: tuple, h: float) -> np.ndarray | None:
     return rot
 
 
+@lru_cache(maxsize=64)
+def _step_translation(linear_velocity: tuple, h: float) -> np.ndarray:
+    """A set's translation over one step, v h, made once (read-only)."""
+    move = np.asarray(linear_velocity, dtype=np.float64) * h
+    move.flags.writeable = False
+    return move
+
+
 @lru_cache(maxsize=8)
 def _frame(path: str, ext: str, line: int | None) -> np.ndarray:
     pos = read_frame_positions(path, ext, line)
@@ -92,7 +100,7 @@ def kinematic_targets(model: Model, x: np.ndarray, t_step_start: float, h: float
         rot = _step_rotation(tuple(s.angular_velocity), h)
         if rot is not None:
             arm = arm @ rot.T
-        targets[s.vertices] = arm + c + np.asarray(s.linear_velocity) * h
+        targets[s.vertices] = arm + c + _step_translation(tuple(s.linear_velocity), h)
     if model.mesh_sequences:
         k = int(round(t_step_start / h)) if step is None else int(step)
         for seq in model.mesh_sequences:

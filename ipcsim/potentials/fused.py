@@ -26,6 +26,7 @@ that whole first run took without them (36 s).
 
 from __future__ import annotations
 
+import math
 from functools import cached_property
 
 from msgspec import Struct, field
@@ -319,9 +320,9 @@ def newton_iterations(fused: FusedTerms, x, span: tuple[int, int], ctx: StepCont
         settings, (bool(pullable[0]), _writeable(pullable[1], np.bool_),
                    _writeable(pullable[2]), float(pullable[3])))
     contacts = out[7]
-    ended_at = tuple(None if np.isnan(c[4]) else ContactCount(int(c[0]), int(c[1]), int(c[2]),
-                                                              float(c[3]))
-                     for c in contacts.tolist())
+    ended_at = tuple(None if math.isnan(c[4]) else ContactCount(int(c[0]), int(c[1]),
+                                                                int(c[2]), c[3])
+                     for c in contacts.tolist())  # Python floats: math, not numpy
     plane, pt, ee, dmin = out[9]
     return NewtonIterations(int(out[0]), int(out[1]), *out[2:7], ended_at, out[8],
                             ContactCount(int(plane), int(pt), int(ee), float(dmin)), *out[10:])

@@ -115,7 +115,10 @@ class IncrementalPotential(Struct, frozen=True, eq=False):
 
     def term(self, name: str) -> Potential | None:
         """The term called ``name`` ("elasticity", "friction", ...), None if absent."""
-        return next((t.term for t in self.terms if t.term.name == name), None)
+        for weighted in self.terms:  # a loop: asked a few times a step, a generator costs
+            if weighted.term.name == name:
+                return weighted.term
+        return None
 
     def evaluate(self, x: np.ndarray, ctx: StepContext, order: int = 0) -> TermValues:
         """The terms at x: their gradients (order ≥ 1) and Hessians (order 2) now, their

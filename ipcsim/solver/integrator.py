@@ -16,6 +16,9 @@ import numpy as np
 
 class BackwardEuler:
     name = "BE"
+    # its update is v = Δx/h, a = Δv/h for every vertex: the prescribed vertices' rates
+    # already (``fix_kinematic_velocities`` would compute them again, bit for bit)
+    kinematic_rates = True
 
     def __init__(self, h: float):
         self.h = h
@@ -35,6 +38,7 @@ class BackwardEuler:
 
 class Newmark:
     name = "NM"
+    kinematic_rates = False  # its update gives the prescribed vertices Newmark's rates
 
     def __init__(self, h: float, beta: float = 0.25, gamma: float = 0.5):
         if not 0.0 < beta <= 0.5 or not 0.0 < gamma <= 1.0:
