@@ -49,7 +49,8 @@ def _read_only(a: np.ndarray) -> np.ndarray:
 class State(Struct, frozen=True, eq=False):
     """Everything the next step needs: positions, velocities, accelerations (n, 3), the
     step counter (the boundary conditions' clock, t = step·h), κ, and the previous step's
-    non-inertial displacement (warm starts 3 and 4). Replaced, never modified, by a step.
+    non-inertial displacement (kept for warm starts 3 and 4 only, which read it; None
+    otherwise). Replaced, never modified, by a step.
 
     ``positions``, ``velocities`` (m, m/s; (n, 3) float64, vertex order of the model)
     and ``time`` (s) are the public, read-only face of it (``ipcsim.Simulation.state``).
@@ -118,9 +119,11 @@ class Simulation:
         self.on_iteration = None  # called with each newton.csv row as it completes (-v)
         self.stiffness = _initial_stiffness(model, self.contact)
         self.state = _initial_state(model, self.stiffness.kappa)
-        # prescribed vertices of bodies that a step may pull (potentials/boundary_pull.py),
-        # and the pull schedule's small step: the original's √(10⁻⁴ l² h²)
-        self._pullable = (np.asarray(model.mass, dtype=float), ~model.obstacle_vertices)
+        # the vertices whose prescribed motion a step may pull (potentials/boundary_pull.py):
+        # of bodies, with mass; and the pull schedule's small step: the original's
+        # √(10⁻⁴ l² h²)
+        mass = np.asarray(model.mass, dtype=float)
+        self._pullable = (mass, np.ascontiguousarray(~model.obstacle_vertices & (mass > 0.0)))
         self._pull_step = 0.01 * model.bbox_diagonal * model.dt
         # (x, collision set at x) of the last step's last iterate: the next one starts there
         self._collisions_at = None
@@ -254,7 +257,8 @@ class Simulation:
         if not self.integrator.kinematic_rates:
             v_new, a_new = fix_kinematic_velocities(v_new, a_new, ctx.kinematic, x_new,
                                                     before.x, before.v, h)
-        dx_elastic = x_new - (before.x + h * before.v + h * h * ctx.acceleration)
+        dx_elastic = (x_new - (before.x + h * before.v + h * h * ctx.acceleration)
+                      if self.model.solver.warm_start in (3, 4) else None)
         return State(x_new, v_new, a_new, before.step + 1, objective.stiffness.kappa,
                      dx_elastic, (before.step + 1) * h)
 

@@ -170,13 +170,15 @@ class CsvLog:
             self.rows_written += len(lines)
 
     def _line(self, row: Mapping[str, object]) -> str:
-        unknown = [k for k in row if k not in self._known]
-        if unknown:
+        if not self._known.issuperset(row):
+            unknown = [k for k in row if k not in self._known]
             raise ValueError(
                 f"unknown column(s) {', '.join(map(repr, unknown))} for {self.path.name}; "
                 f"columns are: {', '.join(self.columns)}"
             )
-        return ",".join([format_cell(row.get(c)) for c in self.columns])
+        # most cells are floats: their text without a call of format_cell
+        return ",".join([repr(v) if type(v) is float else format_cell(v)
+                         for v in map(row.get, self.columns)])
 
     def close(self) -> None:
         if not self._file.closed:

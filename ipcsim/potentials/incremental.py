@@ -96,7 +96,7 @@ class TermValues(Struct, frozen=True, eq=False, dict=True):
         return static, dynamic
 
 
-class IncrementalPotential(Struct, frozen=True, eq=False):
+class IncrementalPotential(Struct, frozen=True, eq=False, dict=True):
     """The step's potential: its weighted terms, evaluated together where ``fused``."""
 
     terms: tuple[WeightedTerm, ...]
@@ -115,10 +115,15 @@ class IncrementalPotential(Struct, frozen=True, eq=False):
 
     def term(self, name: str) -> Potential | None:
         """The term called ``name`` ("elasticity", "friction", ...), None if absent."""
-        for weighted in self.terms:  # a loop: asked a few times a step, a generator costs
-            if weighted.term.name == name:
-                return weighted.term
-        return None
+        return self._terms_by_name.get(name)
+
+    @cached_property
+    def _terms_by_name(self) -> dict:
+        # asked a few times a step; the first term of a name, as a search in order finds
+        by_name = {}
+        for weighted in self.terms:
+            by_name.setdefault(weighted.term.name, weighted.term)
+        return by_name
 
     def evaluate(self, x: np.ndarray, ctx: StepContext, order: int = 0) -> TermValues:
         """The terms at x: their gradients (order ≥ 1) and Hessians (order 2) now, their

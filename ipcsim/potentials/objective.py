@@ -134,8 +134,8 @@ class StepObjective:
                  pullable: tuple[np.ndarray, np.ndarray] | None = None,
                  small_step: float = 0.0,
                  collisions_at: tuple[np.ndarray, Collisions] | None = None):
-        """``pullable``: (mass (n,), mask (n,) of the vertices of bodies: what a pull may
-        take of the prescribed vertices), None for no pull; ``small_step``: the pull
+        """``pullable``: (mass (n,), mask (n,) of the vertices a pull may take of the
+        prescribed ones: of bodies, with mass), None for no pull; ``small_step``: the pull
         schedule's ‖p‖∞ (``PullSchedule``); ``collisions_at``: (x, the collision set at x
         in canonical order) known already: the last step's ``kept_collisions``."""
         self.potential = self._base_potential = potential
@@ -277,9 +277,8 @@ class StepObjective:
         if self.pullable is None:
             return (False, np.zeros(len(self.ctx.x_start), np.bool_), self.ctx.x_start,
                     PullSchedule.done)
-        mass, bodies = self.pullable
-        return (True, np.ascontiguousarray(bodies & (mass > 0.0)),
-                np.ascontiguousarray(self.ctx.x_start, dtype=float), PullSchedule.done)
+        return (True, self.pullable[1], np.ascontiguousarray(self.ctx.x_start, dtype=float),
+                PullSchedule.done)
 
     def newton_iterations(self, x: np.ndarray, first: int, cap: int, dofs, motion: float,
                           energy, progress: tuple, settings: tuple) -> NewtonIterations:
@@ -389,8 +388,8 @@ class StepObjective:
         return placed
 
     def _start_pull(self, x: np.ndarray) -> None:
-        mass, bodies = self.pullable
-        vertices = np.flatnonzero(self.ctx.kinematic & bodies & (mass > 0.0))
+        mass, takeable = self.pullable
+        vertices = np.flatnonzero(self.ctx.kinematic & takeable)
         if not len(vertices):
             return
         pull = BoundaryPull(vertices, mass[vertices], self.ctx.target[vertices],
