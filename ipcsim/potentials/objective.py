@@ -30,6 +30,7 @@ its first set afresh, sums the barrier exactly as the uninterrupted run did.
 
 from __future__ import annotations
 
+import math
 from functools import cached_property
 
 from msgspec import Struct
@@ -327,10 +328,10 @@ class StepObjective:
             self._collisions_at = (out.x.copy(), at_x)
             self.ctx = replace(self.ctx, collisions=at_x)
         self._contacts_at = (out.x, out.contacts)
-        fused = self.potential.fused
-        if not np.isnan(out.values[fused.kinds[0]]):
+        kinds, values = self.potential.fused.kinds, out.values.tolist()
+        if not math.isnan(values[kinds[0]]):
             self._values_at = (out.x, float(out.values_kappa), self.revision,
-                               tuple(float(out.values[k]) for k in fused.kinds))
+                               tuple(values[k] for k in kinds))
         return out
 
     def _snap_reach(self, x: np.ndarray) -> float:

@@ -33,6 +33,8 @@ mirrors, and takes over where an iteration would raise (Python names the culprit
 
 from __future__ import annotations
 
+import math
+
 from msgspec import Struct, field
 from msgspec.structs import replace
 import numpy as np
@@ -236,7 +238,7 @@ class NewtonSolver:
                     (run.tol, settings.max_halvings, settings.kinematic_completion))
             self._add_rows(run, out.rows, out.ended_at)
             x, first = out.x, out.next
-            energy = None if np.isnan(out.state[0]) else float(out.state[0])
+            energy = None if math.isnan(out.state[0]) else float(out.state[0])
             potential = (objective.stiffness.kappa, objective.revision)
             run.min_alpha, run.kinematic_complete = float(out.state[2]), bool(out.state[3])
             status = out.status
