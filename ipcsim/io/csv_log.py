@@ -5,10 +5,12 @@ per run, writes its header once and appends one complete row per call, flushed t
 operating system (and optionally fsync'd) before the call returns, so the file on disk
 always ends with a whole row.
 
-Cell format: integers as decimal, booleans as ``1``/``0``, floats with ``repr`` (the
-shortest text that reads back as the same double, e.g. ``0.1``, ``1e-08``, ``nan``,
-``inf``), a missing value as an empty cell. A float cell always contains ``.``, ``e``,
-``nan`` or ``inf``, so integer and float columns stay distinguishable on reading.
+Cell format: integers as decimal, booleans as ``1``/``0``, floats as the shortest
+digits that read back as the same double (e.g. ``0.1``, ``1e-8``, ``0.00002648``,
+``2.5e16``; msgspec's JSON number text, written in a quarter of ``repr``'s time:
+a tiny scene's run formats some 14,000 cells), ``nan``, ``inf``, ``-inf``, and a
+missing value as an empty cell. A float cell always contains ``.``, ``e``, ``nan`` or
+``inf``, so integer and float columns stay distinguishable on reading.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
+from msgspec.json import Encoder
 import numpy as np
 
 from ..atomic import atomic_write_text
@@ -80,11 +83,20 @@ NEWTON_COLUMNS: tuple[str, ...] = (
 )
 
 
+_NUMBER_TEXT = Encoder().encode
+
+
+def float_cell(value: float) -> str:
+    """A float's cell: its shortest round-trip digits, or nan, inf, -inf (JSON has none:
+    its encoder would write null)."""
+    return _NUMBER_TEXT(value).decode() if math.isfinite(value) else repr(value)
+
+
 def format_cell(value) -> str:
     """Text of one CSV cell; raises TypeError for anything that is not a number."""
     kind = type(value)  # the common cells first: the ABC checks below cost a microsecond
     if kind is float:
-        return repr(value)
+        return float_cell(value)
     if kind is int:
         return str(value)
     if value is None:
@@ -94,7 +106,7 @@ def format_cell(value) -> str:
     if isinstance(value, numbers.Integral):
         return str(int(value))
     if isinstance(value, numbers.Real):
-        return repr(float(value))  # float() first: numpy scalars repr as np.float64(...)
+        return float_cell(float(value))
     raise TypeError(f"a CSV log cell must be a number, bool or None, got {type(value).__name__}")
 
 
@@ -177,7 +189,7 @@ class CsvLog:
                 f"columns are: {', '.join(self.columns)}"
             )
         # most cells are floats: their text without a call of format_cell
-        return ",".join([repr(v) if type(v) is float else format_cell(v)
+        return ",".join([float_cell(v) if type(v) is float else format_cell(v)
                          for v in map(row.get, self.columns)])
 
     def close(self) -> None:

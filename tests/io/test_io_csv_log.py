@@ -120,6 +120,26 @@ def test_format_cell():
     assert format_cell(np.int32(-4)) == "-4"
     assert format_cell(np.float32(0.1)) == repr(float(np.float32(0.1)))
     assert format_cell(1.0) == "1.0"  # a float stays recognisably a float
+    assert [format_cell(v) for v in (math.nan, math.inf, -math.inf, -0.0, 1e-8)] == [
+        "nan", "inf", "-inf", "-0.0", "1e-8"]
+
+
+@settings(max_examples=500, deadline=None)
+@given(st.floats())
+def test_a_float_cell_reads_back_as_the_same_double_and_as_a_float(value):
+    text = format_cell(value)
+    assert any(mark in text for mark in (".", "e", "nan", "inf"))  # never an integer cell
+    back = float(text)
+    assert np.array(back).tobytes() == np.array(value).tobytes() or (
+        math.isnan(value) and math.isnan(back))
+    # no more digits than repr's, the shortest that read back
+    assert _digits(text) <= _digits(repr(value))
+
+
+def _digits(text: str) -> int:
+    """Significant digits written (trailing zeros of an integral value count)."""
+    mantissa = text.split("e")[0].replace("-", "").replace(".", "")
+    return len(mantissa.lstrip("0"))
 
 
 @settings(max_examples=200, deadline=None)
