@@ -93,10 +93,15 @@ class Scene:
     root: str = "examples"
 
 
+# a tiny scene's whole run is a quarter to one second and moves by up to 40 % on a busy
+# host: its median wants many repeats (they cost a few minutes of the list's half hour)
+TINY_REPEATS = 15
+
 # name ("" : the script's path), script, shortened to (duration s, dt s), repeats, root
 SCENES = (
-    Scene("", "tutorialExamples/**/*.txt", None, 3),
-    Scene("paperExamples/10_cubeStack", "paperExamples/10_cubeStack.txt", None, 3),
+    Scene("", "tutorialExamples/**/*.txt", None, TINY_REPEATS),
+    Scene("paperExamples/10_cubeStack", "paperExamples/10_cubeStack.txt", None,
+          TINY_REPEATS),
     Scene("paperExamples/2_matKnives", "paperExamples/2_matKnives.txt"),
     Scene("otherExamples/barTwist_noCollisions",
           "otherExamples/barTwist_noCollisions.txt", (2.0, 0.025)),
@@ -834,7 +839,7 @@ def parse_args(argv):
     ap.add_argument("--only", action="append", metavar="SUBSTRING",
                     help="run the scenes whose name or script contains it (repeatable)")
     ap.add_argument("--repeats", type=int, help="runs per scene and program (default: the "
-                    "table's, 3 for the tiny scenes, else 1)")
+                    "table's, 15 for the tiny scenes, else 1)")
     ap.add_argument("--out", type=Path, help="where the CSV, table and chart go (default "
                     "docs/benchmarks; with --smoke: nowhere unless given)")
     ap.add_argument("--work", type=Path, help="folder for the runs (default output/"
