@@ -86,7 +86,8 @@ def _positions(ck: dict, key: str, n: int, path: Path, allow_empty=False) -> np.
 def read_checkpoint(folder) -> dict:
     """The state stored in ``folder/checkpoint.npz``, checked to be whole: ``step``,
     ``kappa``, ``x``, ``v``, ``a``, ``dx_elastic`` (None when the run had not completed a
-    step, or its warm start reads none) and ``inputs_sha256``. Anything else is a :class:`CheckpointError`."""
+    step, or its warm start reads none) and ``inputs_sha256``. Anything else is a
+    :class:`CheckpointError`."""
     path = Path(folder) / CHECKPOINT_NAME
     if not path.is_file():
         what = "is not a file" if path.exists() else "not found"
