@@ -93,6 +93,7 @@ def _versions(*dists: str) -> dict[str, str | None]:
 def environment_info() -> dict:
     """Versions of ipcsim and its numerical stack, the platform and the command line."""
     from .. import __version__
+    from ..kernels.aot import machine  # here: a run has it loaded, other readers need not
 
     return {
         "ipcsim_version": __version__,
@@ -101,7 +102,7 @@ def environment_info() -> dict:
         **{f"{dist}_version": version
            for dist, version in _versions("scipy", "numba", "meshio").items()},
         "platform": _platform(),
-        "machine": _uname()[4],
+        "machine": machine(),
         "processor_count": os.cpu_count(),
         "command": list(sys.argv),
     }
@@ -112,23 +113,15 @@ def _platform() -> str:
     the C library's own answer: ``platform.platform()`` itself runs ``uname -p`` in a
     subprocess and scans the interpreter's binary for the libc version (10–15 ms, a
     twentieth of a tiny scene's whole run)."""
-    system, _, release, _, machine = _uname()
+    from ..kernels.aot import uname
+
+    system, _, release, _, machine = uname()
     name = f"{system}-{release}-{machine}"
     try:
         libc = os.confstr("CS_GNU_LIBC_VERSION")  # "glibc 2.36"
     except (AttributeError, ValueError, OSError):
         libc = None
     return f"{name}-with-{libc.replace(' ', '')}" if libc else name
-
-
-def _uname() -> tuple:
-    """(system, node, release, version, machine); ``platform`` (1.3 ms to import, for a
-    run that needs none of the rest of it) only where the system has no ``uname``."""
-    if hasattr(os, "uname"):
-        return tuple(os.uname())
-    import platform
-
-    return tuple(platform.uname())[:5]
 
 
 def _plain(value):

@@ -249,14 +249,20 @@ def sources_digest() -> str:
     return h.hexdigest()
 
 
-def machine() -> str:
-    """``platform.machine()`` (x86_64, aarch64): from ``uname`` where the system has it,
-    as ``platform`` itself answers; that module costs 1.3 ms of every start to import."""
+def uname() -> tuple:
+    """(system, node, release, version, machine): ``os.uname()`` where the system has it,
+    as ``platform`` itself answers; that module (1.3 ms of every start to import) only
+    where it has not."""
     if hasattr(os, "uname"):
-        return os.uname().machine
+        return tuple(os.uname())
     import platform
 
-    return platform.machine()
+    return tuple(platform.uname())[:5]
+
+
+def machine() -> str:
+    """``platform.machine()``: x86_64, aarch64."""
+    return uname()[4]
 
 
 def cpu_features() -> list[str]:
