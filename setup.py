@@ -1,7 +1,7 @@
-"""Installing ipcsim compiles its kernels ahead of time (ipcsim/kernels/aot.py).
+"""Installing ipcsim compiles its kernels ahead of time (ipcsim/compiler/aot.py).
 
 Everything else about the package is in pyproject.toml. The compiled kernels are one
-extension module, built by ``python -m ipcsim.kernels.aot_build`` (numba's ahead-of-time
+extension module, built by ``python -m ipcsim.compiler.build`` (numba's ahead-of-time
 compiler) from the sources being installed. It is optional: where it cannot be built, the
 install goes on and numba compiles each kernel on its first use instead. Set
 ``IPCSIM_AOT=0`` to install without it.
@@ -16,7 +16,7 @@ from setuptools import Extension, setup
 from setuptools.command.build_ext import build_ext
 
 ROOT = Path(__file__).resolve().parent
-COMPILED = "ipcsim.kernels._compiled"
+COMPILED = "ipcsim.compiler._compiled"
 COMPANIONS = ("_compiled.json", "_compiled.matchers")  # its manifest, its matchers' code
 
 
@@ -33,7 +33,7 @@ class BuildKernels(build_ext):
         env = dict(os.environ, PYTHONPATH=os.pathsep.join(
             [str(ROOT)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]))
         print(f"ipcsim: compiling kernels ahead of time into {folder} (a few minutes)")
-        done = subprocess.run([sys.executable, "-m", "ipcsim.kernels.aot_build", str(folder)],
+        done = subprocess.run([sys.executable, "-m", "ipcsim.compiler.build", str(folder)],
                               cwd=ROOT, env=env)
         if done.returncode != 0:
             print("ipcsim: WARNING: the kernels could not be compiled ahead of time; "

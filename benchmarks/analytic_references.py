@@ -36,7 +36,7 @@ import numpy as np
 import scipy.linalg
 from scipy.optimize import brentq
 
-from ipcsim.kernels.barrier import barrier_first_derivative
+from ipcsim.kernels.contact.barrier import barrier_first_derivative
 from ipcsim.model.builder import build_model
 from ipcsim.model.generate import box_tet_mesh, write_msh
 from ipcsim.scene import load_scene

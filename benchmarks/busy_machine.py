@@ -13,7 +13,7 @@ Runs ``ipcsim run SCENE --steps N`` (a subprocess, as a user runs it) in three s
 Each situation runs with the TBB library out of numba's sight and, with
 ``--tbb-lib-path DIR`` (a folder holding ``libtbb.so.12``, put on ``LD_LIBRARY_PATH``),
 with it in sight: numba picks TBB as its threading layer whenever it can load it, which
-is what ipcsim's own choice (``kernels/threads.py``) is there to prevent. Prints the
+is what ipcsim's own choice (``compiler/threads.py``) is there to prevent. Prints the
 median whole-process wall time of each situation and its ratio to the quiet one, and
 writes ``busy_machine.csv`` and ``busy_machine_table.md`` into ``--out`` (default
 docs/benchmarks/) unless ``--smoke``.

@@ -62,7 +62,7 @@ CLOCKED = (
     ("step loop", "ipcsim.runner", "_step_loop"),
     ("steps", "ipcsim.simulation", "Simulation.step"),
     ("the step's objective", "ipcsim.simulation", "Simulation.objective"),
-    ("compiled Newton iterations", "ipcsim.kernels.fused_newton", "newton_iterations"),
+    ("compiled Newton iterations", "ipcsim.kernels.terms.newton_loop", "newton_iterations"),
     ("final evaluation", "ipcsim.solver.newton", "NewtonSolver._finish"),
     ("frames", "ipcsim.runner", "_write_frame"),
     ("logs", "ipcsim.io.csv_log", "CsvLog.append_rows"),

@@ -330,7 +330,7 @@ def _step_loop(run: _Run, step_log, newton_log, progress, stop) -> None:
 def _simulate(run: _Run) -> tuple[int, str | None, str | None]:
     """Open the output, run the steps; (exit status, failure for run.json, message)."""
     from .commands.progress import RunProgress
-    from .kernels.compiling import compile_seconds
+    from .compiler.compiling import compile_seconds
 
     say = run.reporter.say
     step_log, newton_log = _open_output(run)
@@ -388,8 +388,8 @@ def _run_info(run: _Run, status: int, failure, wall0: float, started: str) -> No
     import json
 
     from .io.run_info import RUN_INFO_NAME, now_iso, peak_memory_mb, write_run_info
-    from .kernels import aot
-    from .kernels.compiling import compile_seconds
+    from .compiler import aot
+    from .compiler.compiling import compile_seconds
 
     out = run.out
     info = {"scene": run.scene_name, "output": str(out), "started": started,

@@ -26,7 +26,7 @@ from .contact.intersection import find_intersections
 from .contact.setup import ContactSetup
 from .contact.stiffness import BarrierStiffness, kappa_bounds
 from .errors import InfeasibleStartError, NonFiniteError, SolverError
-from .kernels.threads import use_threads
+from .compiler.twin import use_threads
 from .model.kinematics import kinematic_targets, nbc_accelerations
 from .model.surface import index_set
 from .potentials.base import StepContext, Triplets

@@ -41,7 +41,7 @@ def pause_collector() -> None:
     if gc.isenabled():
         gc.disable()
         _paused = True
-        from .kernels.jit import before_numba_loads  # loads numpy: after the pause begins
+        from .compiler.jit import before_numba_loads  # loads numpy: after the pause begins
 
         # numba's compiler makes garbage cycles by the hundred thousand: not while paused
         before_numba_loads(resume_collector)

@@ -1,6 +1,9 @@
 """The house's rules, checked by reading the code (imports and definitions, not running it):
 
-* only ``ipcsim/kernels/`` imports numba, and kernels import nothing of ipcsim outside it;
+* the package is layered (``LAYERS``): a module imports only from its own area and the
+  layers below; no import cycle among its modules;
+* only ``ipcsim/compiler/`` imports numba; kernels import nothing of ipcsim but the
+  compiler and other kernels;
 * the solver imports nothing of contact; the scene parser imports no numerics and nothing
   of the rest of ipcsim but ``errors``, ``atomic`` (the atomic writer) and ``records``;
   ``scene/`` and ``io/`` do not lean on each other;
@@ -68,16 +71,83 @@ def _within(name: str, area: str) -> bool:
 
 def test_the_import_reader_sees_imports():
     assert "ipcsim.atomic.atomic_write_text" in IMPORTS[Path("ipcsim/scene/__init__.py")]
-    assert "numba" in IMPORTS[Path("ipcsim/kernels/jit.py")]  # inside a function too
+    assert "numba" in IMPORTS[Path("ipcsim/compiler/jit.py")]  # inside a function too
 
 
-def test_only_kernels_import_numba():
-    assert _offenders(lambda p, n: n.split(".")[0] == "numba" and _area(p) != "kernels") == []
+# Bottom to top: an area may import its own modules and those of the layers below it.
+LAYERS = (
+    ("compiler", "errors", "atomic", "records", "files", "__version__"),
+    ("kernels", "start_up", "arguments"),
+    ("scene",),
+    ("model",),
+    ("contact", "solver", "io"),
+    ("potentials", "baselines"),
+    ("simulation",),
+    ("runner",),
+    ("study",),
+    ("commands",),
+    ("cli", "__main__", "__init__"),
+)
+_LAYER = {area: i for i, areas in enumerate(LAYERS) for area in areas}
 
 
-def test_kernels_import_nothing_of_ipcsim_outside_kernels():
+def test_every_area_has_a_layer():
+    assert sorted({_area(p) for p in IMPORTS} - set(_LAYER)) == []
+
+
+def test_imports_go_down_the_layers():
+    def upwards(path, name):
+        if not name.startswith("ipcsim."):
+            return False
+        target = name.split(".")[1]
+        return target in _LAYER and _LAYER[target] > _LAYER[_area(path)]
+
+    assert _offenders(upwards) == []
+
+
+def _module_graph() -> dict[str, set[str]]:
+    """Module -> the package's modules it imports (a name imported from a package's
+    ``__init__`` counts as the submodule where there is one; a module's own packages,
+    which Python runs first anyway, are left out)."""
+    modules = {".".join(p.with_suffix("").parts).removesuffix(".__init__"): p
+               for p in IMPORTS}
+    graph = {}
+    for module, path in modules.items():
+        found = set()
+        for name in IMPORTS[path]:
+            while name and name not in modules:
+                name = name.rpartition(".")[0]
+            if name and not (module + ".").startswith(name + "."):
+                found.add(name)
+        graph[module] = found
+    return graph
+
+
+def test_no_import_cycle():
+    """No module reaches itself through imports (lazy ones inside functions included)."""
+    graph = _module_graph()
+    cycles = []
+    for start in graph:
+        stack, seen = [(start, [start])], set()
+        while stack:
+            module, route = stack.pop()
+            for nxt in graph[module]:
+                if nxt == start:
+                    cycles.append(" -> ".join(route + [nxt]))
+                elif nxt not in seen:
+                    seen.add(nxt)
+                    stack.append((nxt, route + [nxt]))
+    assert cycles == []
+
+
+def test_only_the_compiler_imports_numba():
+    assert _offenders(lambda p, n: n.split(".")[0] == "numba" and _area(p) != "compiler") \
+        == []
+
+
+def test_kernels_import_nothing_of_ipcsim_but_kernels_and_the_compiler():
     assert _offenders(lambda p, n: _area(p) == "kernels" and n.startswith("ipcsim")
-                      and not _within(n, "kernels")) == []
+                      and not _within(n, "kernels") and not _within(n, "compiler")) == []
 
 
 def test_the_solver_imports_nothing_of_contact():
@@ -135,7 +205,7 @@ def _functions():
 
 
 def _is_kernel(node) -> bool:
-    """A numba kernel: ``@njit(...)`` or ``@kernel(...)`` (kernels/twin.py)."""
+    """A numba kernel: ``@njit(...)`` or ``@kernel(...)`` (compiler/twin.py)."""
     return any("jit" in ast.unparse(d) or ast.unparse(d).startswith("kernel(")
                for d in node.decorator_list)
 

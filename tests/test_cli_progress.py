@@ -77,8 +77,8 @@ def test_the_time_left_leaves_out_compiling(monkeypatch):
 
 
 def test_a_compiling_run_says_so_once(capsys):
-    from ipcsim.kernels import compiling
-    from ipcsim.kernels.jit import numba_module
+    from ipcsim.compiler import compiling
+    from ipcsim.compiler.jit import numba_module
 
     said = []
     compiling.when_compiling_starts(lambda: said.append(1))

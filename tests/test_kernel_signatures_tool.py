@@ -5,7 +5,7 @@ from __future__ import annotations
 import importlib.util
 from pathlib import Path
 
-from ipcsim.kernels import aot
+from ipcsim.compiler import aot
 
 TOOL = Path(__file__).resolve().parents[1] / "tools" / "kernel_signatures.py"
 

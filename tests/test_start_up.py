@@ -69,7 +69,7 @@ def test_nothing_is_resumed_that_was_not_paused(monkeypatch):
 def test_loading_numba_ends_the_pause(monkeypatch):
     """numba's compiler makes garbage cycles by the hundred thousand: the pause ends before
     numba loads (a kernel without a compiled match, a first parallel run)."""
-    from ipcsim.kernels import compiling, jit, threads
+    from ipcsim.compiler import compiling, jit, threads
 
     monkeypatch.setattr(jit, "_numba", None)  # as in a process that has not loaded it
     monkeypatch.setattr(jit, "_before_loading", [])

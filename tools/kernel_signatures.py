@@ -1,4 +1,4 @@
-"""Write, or check, ipcsim/kernels/signatures.txt: the kernels compiled ahead of time when
+"""Write, or check, ipcsim/compiler/signatures.txt: the kernels compiled ahead of time when
 ipcsim is installed, with the argument types of every call the scenes make from Python.
 
     python tools/kernel_signatures.py [SCENE[@STEPS] ...]
@@ -42,7 +42,7 @@ SCENES = [
 
 HEADER = """\
 # The kernels ipcsim compiles ahead of time when it is installed, with the argument types
-# of each compiled variant (ipcsim/kernels/aot.py). A call whose types are not listed here
+# of each compiled variant (ipcsim/compiler/aot.py). A call whose types are not listed here
 # is compiled by numba on first use. Written by tools/kernel_signatures.py from the calls
 # its scenes make.
 """
@@ -52,7 +52,7 @@ def record(scenes: list[str]) -> list[str]:
     """Run each ``SCENE[@STEPS]`` on one thread, check its frames, and return every kernel
     call that went to numba as a table line."""
     os.environ["IPCSIM_THREADS"] = "1"
-    from ipcsim.kernels import aot
+    from ipcsim.compiler import aot
 
     aot.start_recording()
     import ipcsim
@@ -87,7 +87,7 @@ def main(argv=None) -> int:
         os.environ["IPCSIM_AOT"] = "0"  # every call goes to numba and is recorded
     os.chdir(ROOT)
     sys.path.insert(0, str(ROOT))
-    from ipcsim.kernels import aot
+    from ipcsim.compiler import aot
 
     lines = record(args.scenes or SCENES)
     odd = [line for line in lines if "?" in line]

@@ -25,8 +25,8 @@ import scipy.sparse as sp
 from ..contact.collision_mesh import CollisionMesh
 from ..contact.collisions import pair_distances, swept_collisions
 from ..contact.planes import Planes
-from ..kernels import ccd as _ccd
-from ..kernels import constraints as _kc
+from ..kernels.contact import ccd as _ccd
+from ..kernels.contact import constraints as _kc
 
 KINDS = {"volume": _kc.VOLUME, "gap": _kc.GAP, "Verschoor": _kc.VERSCHOOR}
 

@@ -64,7 +64,7 @@ def main(args) -> int:
 
 def _tell_when_compiling() -> None:
     """Say once why a first run after installing is slow (numba compiles the kernels)."""
-    from ..kernels.compiling import when_compiling_starts
+    from ..compiler.compiling import when_compiling_starts
 
     when_compiling_starts(lambda: print(
         "ipcsim: compiling the numba kernels for this machine (once after installing; "

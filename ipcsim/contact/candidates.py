@@ -10,14 +10,14 @@ Two uses:
 
 Pairs that share a vertex are never candidates, and the collision mesh's filters apply (body
 ids, self collision, kinematic–kinematic pairs; see ``CollisionMesh``). The method (a BVH over
-Morton-ordered boxes) lives in ``ipcsim.kernels.broad_phase``.
+Morton-ordered boxes) lives in ``ipcsim.kernels.contact.broad_phase``.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..kernels import broad_phase as _bp
+from ..kernels.contact import broad_phase as _bp
 from .collision_mesh import CollisionMesh
 
 

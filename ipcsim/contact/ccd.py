@@ -1,7 +1,7 @@
 """Collision-free step bounds for linear motions x -> x + αp (additive CCD).
 
 Broad phase on swept boxes (each box holds both positions of its primitive), then
-additive CCD on every point–triangle and edge–edge candidate (``ipcsim.kernels.ccd``).
+additive CCD on every point–triangle and edge–edge candidate (``ipcsim.kernels.contact.ccd``).
 The α returned keeps every candidate pair apart on all of [0, α], with a gap of at least
 ``min_gap_fraction`` times its distance at the start; pairs outside the candidate set
 cannot meet during the step.
@@ -19,7 +19,7 @@ from __future__ import annotations
 from msgspec import Struct
 import numpy as np
 
-from ..kernels import ccd as _ccd
+from ..kernels.contact import ccd as _ccd
 from .candidates import find_candidates
 from .collision_mesh import CollisionMesh
 from .collisions import Collisions, swept_collisions

@@ -15,7 +15,7 @@ from msgspec import Struct
 from msgspec.structs import force_setattr
 import numpy as np
 
-from ..kernels.broad_phase import primitive_tags
+from ..kernels.contact.broad_phase import primitive_tags
 
 
 def _index_array(a, cols: int, name: str) -> np.ndarray:

@@ -18,9 +18,9 @@ from functools import cached_property
 from msgspec import Struct
 import numpy as np
 
-from ..kernels.broad_phase import swept_pairs_within
-from ..kernels.contact_barrier import classify_and_distance, near_pairs
-from ..kernels.mollifier import edge_edge_mollifier_thresholds
+from ..kernels.contact.broad_phase import swept_pairs_within
+from ..kernels.contact.pair_barrier import classify_and_distance, near_pairs
+from ..kernels.contact.mollifier import edge_edge_mollifier_thresholds
 from .candidates import find_candidates
 from .collision_mesh import CollisionMesh
 

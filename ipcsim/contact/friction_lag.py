@@ -17,7 +17,7 @@ from __future__ import annotations
 from msgspec import Struct
 import numpy as np
 
-from ..kernels import friction as kf
+from ..kernels.contact import friction as kf
 from .collisions import Collisions
 from .planes import Planes
 

@@ -1,7 +1,7 @@
 """Exact intersection and inversion checks for a frame, independent of the barrier.
 
 IPC promises that no surface edge crosses a surface triangle and that no tet inverts.
-These functions verify a frame with exact predicates (see ``ipcsim.kernels.intersection``)
+These functions verify a frame with exact predicates (see ``ipcsim.kernels.contact.intersection``)
 so a run can be checked without trusting the method being checked.
 
 Semantics
@@ -19,7 +19,7 @@ from __future__ import annotations
 from msgspec import Struct
 import numpy as np
 
-from ipcsim.kernels import intersection as _k
+from ipcsim.kernels.contact import intersection as _k
 from ipcsim.model.surface import unique_edges
 
 COPLANAR = 2

@@ -12,7 +12,7 @@ from msgspec import Struct
 from msgspec.structs import force_setattr
 import numpy as np
 
-from ..kernels.plane_contact import plane_active_count_and_min_distance
+from ..kernels.contact.plane_barrier import plane_active_count_and_min_distance
 
 
 class Planes(Struct, frozen=True, eq=False):

@@ -18,7 +18,7 @@ from msgspec import Struct
 from msgspec.structs import replace
 import numpy as np
 
-from ..kernels.barrier import (balanced_stiffness, barrier_second_derivative,
+from ..kernels.contact.barrier import (balanced_stiffness, barrier_second_derivative,
                                stiffness_doubles)
 
 

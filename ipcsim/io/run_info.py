@@ -93,7 +93,7 @@ def _versions(*dists: str) -> dict[str, str | None]:
 def environment_info() -> dict:
     """Versions of ipcsim and its numerical stack, the platform and the command line."""
     from .. import __version__
-    from ..kernels.aot import machine  # here: a run has it loaded, other readers need not
+    from ..compiler.aot import machine  # here: a run has it loaded, other readers need not
 
     return {
         "ipcsim_version": __version__,
@@ -113,7 +113,7 @@ def _platform() -> str:
     the C library's own answer: ``platform.platform()`` itself runs ``uname -p`` in a
     subprocess and scans the interpreter's binary for the libc version (10–15 ms, a
     twentieth of a tiny scene's whole run)."""
-    from ..kernels.aot import uname
+    from ..compiler.aot import uname
 
     system, _, release, _, machine = uname()
     name = f"{system}-{release}-{machine}"

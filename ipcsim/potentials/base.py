@@ -24,9 +24,9 @@ from msgspec import Struct
 from msgspec.structs import replace
 import numpy as np
 
-from ..kernels import assembly as ka
-from ..kernels.assembly import block_triplet_indices
-from ..kernels.scatter import block_matvec
+from ..kernels.algebra import assembly as ka
+from ..kernels.algebra.assembly import block_triplet_indices
+from ..kernels.algebra.scatter import block_matvec
 
 if TYPE_CHECKING:
     import scipy.sparse as sp
@@ -106,7 +106,7 @@ class Triplets(Struct, frozen=True):
                               free_index, p, coupling)
 
     def count_into(self, free_index, p, coupling, counts) -> None:
-        """Count the entries a merge keeps per free column (``kernels/assembly.py``)."""
+        """Count the entries a merge keeps per free column (``kernels/algebra/assembly.py``)."""
         ka.count_kept_columns(self.rows, self.cols, self.vals, float(self.scale), free_index,
                               p, coupling, counts)
 

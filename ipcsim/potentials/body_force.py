@@ -13,7 +13,7 @@ from msgspec import Struct
 from msgspec.structs import force_setattr
 import numpy as np
 
-from ..kernels.simple_terms import body_force_value
+from ..kernels.terms.simple import body_force_value
 from .base import StepContext, Triplets
 
 

@@ -27,7 +27,7 @@ from msgspec import Struct
 from msgspec.structs import replace
 import numpy as np
 
-from ..kernels.simple_terms import pull_gradient, pull_value
+from ..kernels.terms.simple import pull_gradient, pull_value
 from .base import StepContext, Triplets
 
 START_RHO = 1e6  # ρ at the start of a pull (the original's)

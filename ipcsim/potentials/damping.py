@@ -17,7 +17,7 @@ from typing import ClassVar
 
 from msgspec import Struct
 
-from ..kernels.simple_terms import damping_value
+from ..kernels.terms.simple import damping_value
 from .base import ElementHessian, LaggedDamping, StepContext
 
 

@@ -5,7 +5,7 @@ Energies (as in the original IPC program), per rest volume:
     "NH"   neo-Hookean      Ψ = μ/2 (tr FᵀF − 3) − μ ln J + λ/2 (ln J)²   (+∞ for J ≤ 0)
     "FCR"  fixed corotated  Ψ = μ Σ (σᵢ − 1)² + λ/2 (J − 1)²
 
-The math lives in ``ipcsim.kernels.elasticity``; this class holds the per-tet data and
+The math lives in ``ipcsim.kernels.elasticity.tets``; this class holds the per-tet data and
 turns the kernels' arrays into what the solver expects. ``hessian`` projects every element
 Hessian to PSD with the analytic eigensystem of Smith, de Goes and Kim (2019).
 
@@ -24,7 +24,7 @@ from msgspec import Struct
 from msgspec.structs import force_setattr
 import numpy as np
 
-from ..kernels import elasticity as kern
+from ..kernels.elasticity import tets as kern
 from .base import ElementHessian
 
 _MODELS = {

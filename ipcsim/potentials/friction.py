@@ -30,7 +30,7 @@ from msgspec import Struct
 from msgspec.structs import force_setattr
 import numpy as np
 
-from ..kernels import friction as kf
+from ..kernels.contact import friction as kf
 from .base import StepContext, Triplets
 
 

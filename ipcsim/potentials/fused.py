@@ -1,6 +1,6 @@
 """A small scene's terms evaluated together: one kernel call gives every term's value, one
 every gradient, one adds every Hessian into the dense Newton matrix
-(``kernels/fused_terms.py``), where the terms on their own make a call per term and per
+(``kernels/terms/all_terms.py``), where the terms on their own make a call per term and per
 quantity.
 
 On a scene of tens of vertices those calls, not their arithmetic, were most of a Newton
@@ -13,11 +13,11 @@ gradient and Newton matrix is the one the terms give, bit for bit. The potential
 the only place the dense Hessian fits.
 
 ``line_search`` does a Newton direction's line search in one call the same way
-(``kernels/fused_line_search.py``): the terms' step bounds, the mesh's sweep and CCD,
+(``kernels/terms/line_search.py``): the terms' step bounds, the mesh's sweep and CCD,
 and the backtracking on these energies, as ``StepObjective.max_step`` and
 ``NewtonSolver._line_search`` do it. ``newton_iterations`` goes further: Newton's
 iterations themselves, evaluation, κ, the dense system, its Cholesky factor, the
-stopping rule and the line search, in one call (``kernels/fused_newton.py``).
+stopping rule and the line search, in one call (``kernels/terms/newton_loop.py``).
 
 Fusing pays where the fused kernels were compiled at install (``available``): left to
 numba, compiling them at a scene's first run took 50 s on two tutorial cubes, more than
@@ -32,10 +32,10 @@ from functools import cached_property
 from msgspec import Struct, field
 import numpy as np
 
-from ..kernels import fused_terms as kf
-from ..kernels.ccd import DEFAULT_MAX_ITERATIONS, DEFAULT_MIN_GAP_FRACTION
-from ..kernels import fused_newton as kn
-from ..kernels.fused_line_search import line_search as fused_line_search
+from ..kernels.terms import all_terms as kf
+from ..kernels.contact.ccd import DEFAULT_MAX_ITERATIONS, DEFAULT_MIN_GAP_FRACTION
+from ..kernels.terms import newton_loop as kn
+from ..kernels.terms.line_search import line_search as fused_line_search
 from ..contact.setup import ContactCount
 from .base import StepContext, Triplets
 from .body_force import BodyForce
@@ -237,7 +237,7 @@ _NO_MESH = (np.zeros((0, 1), dtype=np.int64), np.zeros((0, 2), dtype=np.int64),
 
 
 class LineSearchResult(Struct, frozen=True, eq=False):
-    """What ``line_search`` found (``kernels/fused_line_search.py``)."""
+    """What ``line_search`` found (``kernels/terms/line_search.py``)."""
 
     x_new: np.ndarray
     alpha: float
@@ -272,7 +272,7 @@ def line_search(fused: FusedTerms, x, p3, kappa: float, ctx: StepContext, mesh,
 
 
 class NewtonIterations(Struct, frozen=True, eq=False):
-    """What ``newton_iterations`` did: ``status`` (``kernels/fused_newton.py``'s codes),
+    """What ``newton_iterations`` did: ``status`` (``kernels/terms/newton_loop.py``'s codes),
     the next iteration's number, x and the last direction p (3n,), κ's state, E(x) (NaN:
     not known at this κ), CCD's α, the smallest α, whether the prescribed motion was
     complete, the rows (k, 8) and the contacts each row ended at (k, 5; NaN where not
@@ -300,7 +300,7 @@ def newton_iterations(fused: FusedTerms, x, span: tuple[int, int], ctx: StepCont
     until one Python must do or finish. ``contact``: (collision mesh or None, planes or
     None, the collision set at x: pt, ee, ε_x, ids, types and d²); ``newton``: (dofs,
     prescribed, stiffness, ramp, state, settings, pullable) as
-    ``kernels/fused_newton.py`` lists them."""
+    ``kernels/terms/newton_loop.py`` lists them."""
     mesh, planes, pairs = contact
     dofs, prescribed, stiffness, ramp, state, settings, pullable = newton
     prescribed_dofs, free, free_index, n_free = dofs

@@ -10,7 +10,7 @@ from msgspec import Struct
 from msgspec.structs import force_setattr
 import numpy as np
 
-from ..kernels.simple_terms import inertia_value
+from ..kernels.terms.simple import inertia_value
 from .base import StepContext, Triplets
 
 

@@ -16,7 +16,7 @@ from typing import ClassVar
 from msgspec import Struct
 import numpy as np
 
-from ..kernels import contact_barrier as kb
+from ..kernels.contact import pair_barrier as kb
 from .base import BlockHessian, StepContext, Triplets
 
 

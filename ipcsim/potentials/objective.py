@@ -43,7 +43,7 @@ from ..contact.collisions import (Collisions, PairDistances, build_collisions,
 from ..contact.friction_lag import FrictionLag, lag_friction
 from ..contact.setup import ContactCount, ContactSetup
 from ..contact.stiffness import BarrierStiffness
-from ..kernels.ccd import DEFAULT_MAX_ITERATIONS, DEFAULT_MIN_GAP_FRACTION
+from ..kernels.contact.ccd import DEFAULT_MAX_ITERATIONS, DEFAULT_MIN_GAP_FRACTION
 from ..records import same_bits
 from .base import StepContext, Triplets
 from .boundary_pull import BoundaryPull, PullSchedule

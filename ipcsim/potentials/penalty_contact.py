@@ -7,7 +7,7 @@ as the barrier terms and replace the energy by
     P = ½ k Σ max(0, d̂ − d)²
 
 over the same pairs (signed d for planes, the unsigned closest-feature distance for mesh
-pairs; see ``ipcsim/kernels/penalty.py``), with a fixed stiffness k. There is no
+pairs; see ``ipcsim/kernels/contact/penalty.py``), with a fixed stiffness k. There is no
 feasibility filter: ``max_step`` is 1, so nothing stops a step from crossing a surface.
 """
 
@@ -18,7 +18,7 @@ from typing import ClassVar
 from msgspec import Struct
 
 from ..contact.planes import Planes
-from ..kernels import penalty as kp
+from ..kernels.contact import penalty as kp
 from .base import StepContext, Triplets
 
 

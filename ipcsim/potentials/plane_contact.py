@@ -9,7 +9,7 @@ from typing import ClassVar
 from msgspec import Struct
 
 from ..contact.planes import Planes
-from ..kernels import plane_contact as k
+from ..kernels.contact import plane_barrier as k
 from .base import StepContext, Triplets
 
 # CCD stops a vertex at 10% of its current gap to a plane: never at zero distance.

@@ -24,8 +24,10 @@ from .spec import (
     ShapeSpec,
 )
 from .overrides import apply_overrides, parse_assignment
-from .toml_format import format_toml, parse_toml
-from .txt_format import format_txt, parse_txt
+from .toml_reader import parse_toml
+from .toml_writer import format_toml
+from .txt_reader import parse_txt
+from .txt_writer import format_txt
 from .validate import validate_scene
 
 __all__ = [

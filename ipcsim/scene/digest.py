@@ -1,7 +1,7 @@
 """The identity of a run's inputs: one SHA-256 over the resolved scene and the bytes of
 every file it reads.
 
-The resolved scene is :func:`~ipcsim.scene.toml_format.scene_to_dict` (every value, every
+The resolved scene is :func:`~ipcsim.scene.toml_writer.scene_to_dict` (every value, every
 default) with each file named by the digest of its content instead of its path, so the
 same scene read from another working directory, or with its meshes moved, has the same
 digest, and a mesh whose coordinates changed has another one. A TetGen mesh is its
@@ -17,7 +17,7 @@ from pathlib import Path
 
 from ..errors import SceneError
 from .spec import SceneSpec
-from .toml_format import scene_to_dict
+from .toml_writer import scene_to_dict
 
 __all__ = ["inputs_digest", "file_digest"]
 

@@ -26,7 +26,8 @@ from msgspec.structs import replace
 
 from ..errors import SceneError, excerpt
 from .spec import SceneSpec
-from .toml_format import parse_toml_data, scene_to_dict
+from .toml_reader import parse_toml_data
+from .toml_writer import scene_to_dict
 
 __all__ = ["apply_overrides", "parse_assignment", "normalise_key", "ALIASES"]
 

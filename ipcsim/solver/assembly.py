@@ -7,7 +7,7 @@ call, so the map from each of their triplets to a slot of the CSC matrix is comp
 per kinematic mask, and each iteration only scatter-adds values, times the term's weight
 (a linear pass instead of a sort of millions of triplets). Triplets of terms whose pattern
 changes (contact, friction) are bucketed by column and merged into that matrix
-(``kernels/assembly.py``).
+(``kernels/algebra/assembly.py``).
 
 ``assemble`` also returns the coupling H_fk p_k, the free rows' product with the
 prescribed motion of kinematic DOFs, which the Newton step subtracts from its right side.
@@ -22,7 +22,7 @@ from typing import ClassVar
 from msgspec import Struct
 import numpy as np
 
-from ..kernels import assembly as ka
+from ..kernels.algebra import assembly as ka
 
 
 class CscMatrix(Struct, frozen=True, eq=False):

@@ -48,8 +48,8 @@ import sys
 import numpy as np
 
 from ..errors import SolverError
-from ..kernels.assembly import block_graph
-from ..kernels.linalg import cholesky_in_place, cholesky_solve, dense_cholesky
+from ..kernels.algebra.assembly import block_graph
+from ..kernels.algebra.linalg import cholesky_in_place, cholesky_solve, dense_cholesky
 
 BLOCK = 3  # DOFs per vertex: the ordering works on the graph of these blocks
 
@@ -177,7 +177,7 @@ class ScipySolver:
 
 
 class DenseSolver:
-    """Dense Cholesky L Lᵀ = A (``kernels/linalg.py``) for small systems only: n² memory
+    """Dense Cholesky L Lᵀ = A (``kernels/algebra/linalg.py``) for small systems only: n² memory
     and n³/3 operations. At 48 DOFs a solve takes 14 µs against CHOLMOD's 22 µs (its
     per-call setup); at about 70 DOFs the two are even (``benchmarks/small_solves.py``,
     docs/linear-solvers.md). ``A`` is a sparse matrix, or the dense (n, n) array that

@@ -25,7 +25,7 @@ converged direction is still taken (it costs no solve), so a step always moves b
 one Newton direction and a slow body does not stall below the tolerance.
 
 On a small scene (a dense system, the terms fused) the iterations run as one compiled
-call (``kernels/fused_newton.py``): the loop of ``solve`` step by step, bit for bit. A
+call (``kernels/terms/newton_loop.py``): the loop of ``solve`` step by step, bit for bit. A
 pull of prescribed vertices is decided, tightened and ended by Python between such
 calls, one iteration each while it lasts. The loop here is the reference the kernel
 mirrors, and takes over where an iteration would raise (Python names the culprit).
@@ -40,9 +40,9 @@ from msgspec.structs import replace
 import numpy as np
 
 from ..errors import NonFiniteError, SolverError
-from ..kernels.fused_newton import (CONVERGED, FOLLOW_UP, ITERATION_CAP,
+from ..kernels.terms.newton_loop import (CONVERGED, FOLLOW_UP, ITERATION_CAP,
                                     LINE_SEARCH_FAILED)
-from ..kernels.linalg import dot
+from ..kernels.algebra.linalg import dot
 from ..records import same_bits
 from .assembly import Assembler, DenseAssembler
 from .timing import PhaseTimer

@@ -45,8 +45,8 @@ from pathlib import Path
 from msgspec import Struct, field
 
 from ..errors import SceneError, excerpt
-from ..scene.toml_format import locate_keys
-from ..scene.txt_format import suggest
+from ..scene.toml_reader import locate_keys
+from ..scene.txt_reader import suggest
 
 __all__ = ["StudySpec", "Axis", "Record", "Chart", "load_study", "make_study", "SUMMARIES"]
 

@@ -10,14 +10,14 @@ from pathlib import Path
 import pytest
 
 KERNELS = Path(__file__).resolve().parents[2] / "ipcsim" / "kernels"
-FILES = sorted(KERNELS.glob("*.py"))
+FILES = sorted(KERNELS.rglob("*.py"))
 
 
 def _tree(path):
     return ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
 
 
-@pytest.mark.parametrize("path", FILES, ids=lambda p: p.name)
+@pytest.mark.parametrize("path", FILES, ids=lambda p: p.relative_to(KERNELS).as_posix())
 def test_no_private_names_imported_across_files(path):
     private = []
     for node in ast.walk(_tree(path)):
@@ -30,7 +30,7 @@ def test_no_private_names_imported_across_files(path):
     assert private == []
 
 
-@pytest.mark.parametrize("path", FILES, ids=lambda p: p.name)
+@pytest.mark.parametrize("path", FILES, ids=lambda p: p.relative_to(KERNELS).as_posix())
 def test_no_kernel_function_is_longer_than_80_lines(path):
     long = [(n.name, n.end_lineno - n.lineno + 1) for n in ast.walk(_tree(path))
             if isinstance(n, ast.FunctionDef) and n.end_lineno - n.lineno + 1 > 80]

@@ -12,7 +12,7 @@ import pytest
 from generated import write_box_msh
 
 from ipcsim.contact.intersection import find_intersections
-from ipcsim.kernels.linalg import tet_signed_volumes
+from ipcsim.kernels.algebra.linalg import tet_signed_volumes
 from ipcsim.model.builder import build_model
 from ipcsim.potentials.boundary_pull import MAX_RHO, START_RHO, BoundaryPull, PullSchedule
 from ipcsim.scene import load_scene

@@ -9,7 +9,7 @@ import pytest
 from ipcsim.contact.collision_mesh import CollisionMesh
 from ipcsim.contact.collisions import build_collisions
 from ipcsim.contact.planes import Planes
-from ipcsim.kernels import penalty as kp
+from ipcsim.kernels.contact import penalty as kp
 from ipcsim.model.builder import build_model
 from ipcsim.model.generate import box_tet_mesh, write_msh
 from ipcsim.potentials.base import StepContext, Triplets

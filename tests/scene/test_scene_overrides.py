@@ -8,7 +8,7 @@ import pytest
 from ipcsim.errors import SceneError
 from ipcsim.scene import load_scene, parse_assignment
 from ipcsim.scene.overrides import normalise_key
-from ipcsim.scene.toml_format import scene_to_dict
+from ipcsim.scene.toml_writer import scene_to_dict
 
 
 def _changed(a, b) -> dict:

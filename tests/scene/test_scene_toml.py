@@ -10,7 +10,8 @@ import pytest
 from ipcsim.errors import SceneError
 from ipcsim.scene import format_toml, load_scene, parse_toml, save_scene
 from ipcsim.scene.spec import SceneSpec
-from ipcsim.scene.toml_format import _SIMPLE, locate_keys, scene_to_dict
+from ipcsim.scene.toml_reader import _SIMPLE, locate_keys
+from ipcsim.scene.toml_writer import scene_to_dict
 
 BASE = '[[shapes]]\npath = "meshes/cube.msh"\n'
 

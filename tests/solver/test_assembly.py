@@ -96,7 +96,7 @@ def test_contact_triplets_merge_in_the_order_of_one_stable_sort():
     """The contact triplets are bucketed by column and each column sorted and summed; the
     merged matrix is bit for bit the one a single stable sort of all (col, row) keys
     gives, duplicates summed in order and then added to the fixed part's entry."""
-    from ipcsim.kernels import assembly as ka
+    from ipcsim.kernels.algebra import assembly as ka
 
     n = 50
     fixed = sp.random(n, n, density=0.1, random_state=3, format="csc")
@@ -254,7 +254,7 @@ def test_newton_assembles_dense_for_a_solver_that_factors_dense_arrays():
 def test_the_block_product_is_the_matrix_product():
     """``block_matvec`` (the lagged damping's D·Δx) equals the product with the sparse
     matrix of the same blocks, duplicates summed."""
-    from ipcsim.kernels.scatter import block_matvec
+    from ipcsim.kernels.algebra.scatter import block_matvec
 
     elastic, n_vertices = _elastic_hessian((2, 2, 1))
     D = elastic.kept().scaled(0.3)

@@ -1,4 +1,4 @@
-"""Newton's iterations as one compiled call (kernels/fused_newton.py) are the Python loop's
+"""Newton's iterations as one compiled call (kernels/terms/newton_loop.py) are the Python loop's
 bit for bit: every iterate, κ, row and contact count, on two small boxes in contact with
 each other and the ground (friction, Newmark with damping, prescribed vertices that CCD
 stops and a pull takes over), at the iteration cap, where the line search gives up, and
@@ -15,7 +15,7 @@ import pytest
 
 import ipcsim.potentials.fused as fused_module
 from ipcsim.errors import NonFiniteError
-from ipcsim.kernels import fused_newton as kn
+from ipcsim.kernels.terms import newton_loop as kn
 from ipcsim.model.builder import build_model
 from ipcsim.potentials.objective import StepObjective
 from ipcsim.scene import load_scene
@@ -231,7 +231,7 @@ def test_kappas_balance_is_summed_in_index_order():
     """κ's balance and the logged gradient norm sum in index order on both sides (numpy's
     BLAS sums in blocks whose order depends on the build)."""
     from ipcsim.contact.stiffness import balanced_kappa
-    from ipcsim.kernels.linalg import dot
+    from ipcsim.kernels.algebra.linalg import dot
     from ipcsim.solver.newton import _norm
 
     rng = np.random.default_rng(7)

@@ -198,7 +198,7 @@ def test_group_nested_dissection_is_a_permutation(n):
 def test_the_block_graph_is_the_groups_coupling_graph(n):
     """METIS's graph, built column by column, is the one defined entry by entry: every pair
     of DOF groups that share a stored entry, both ways, sorted, no self-loops."""
-    from ipcsim.kernels.assembly import block_graph
+    from ipcsim.kernels.algebra.assembly import block_graph
 
     A = block_spd(max(2, (n + 2) // 3), seed=n, extra_pairs=n)[:n, :n].tocsc()
     xadj, adjncy = block_graph(A.indptr, A.indices, n, 3)
@@ -413,7 +413,7 @@ def test_dense_cholesky_kernel_rounds_as_the_textbook_formula(n):
     """``cholesky_in_place`` works on four rows at once; each entry is still the
     textbook sum in k order, so its factor equals the formula's bit for bit (every
     count of rows left over after the blocks of four occurs)."""
-    from ipcsim.kernels.linalg import cholesky_in_place
+    from ipcsim.kernels.algebra.linalg import cholesky_in_place
 
     rng = np.random.default_rng(n)
     B = rng.standard_normal((n, n))
@@ -426,7 +426,7 @@ def test_dense_cholesky_kernel_rounds_as_the_textbook_formula(n):
 
 @pytest.mark.parametrize("row", [1, 4, 8, 10])
 def test_dense_cholesky_kernel_refuses_a_nan_below_the_diagonal(row):
-    from ipcsim.kernels.linalg import cholesky_in_place
+    from ipcsim.kernels.algebra.linalg import cholesky_in_place
 
     A = block_spd(4, seed=3).toarray()
     A[row, 0] = np.nan

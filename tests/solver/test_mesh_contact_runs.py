@@ -73,7 +73,7 @@ def test_the_contact_hessian_is_gone_before_the_factorisation(tmp_path, cube_mes
     (checked when the merged matrix is built and at every solve)."""
     import weakref
 
-    from ipcsim.kernels import assembly as kernels
+    from ipcsim.kernels.algebra import assembly as kernels
 
     scene = _scene(tmp_path, cube_mesh, f"{cube_mesh} 0.01 0.205 0.005  0 20 0  1 1 1\n"
                                         f"{cube_mesh} 0 0.001 0  0 0 0  1 1 1",

@@ -1,0 +1,79 @@
+"""The IPC log barrier, written in squared distance as the original program does.
+
+    b(s; ŝ) = -(s - ŝ)² ln(s / ŝ)   for 0 < s < ŝ,   0 for s ≥ ŝ
+
+with s = d² and ŝ = d̂². It is C² at s = ŝ and grows without bound as s -> 0.
+Derivatives are with respect to s.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from ipcsim.compiler.jit import njit
+from ipcsim.kernels.algebra.linalg import dot
+
+
+@njit(cache=True)
+def barrier(s, s_hat):
+    if s >= s_hat:
+        return 0.0
+    if s <= 0.0:
+        return np.inf
+    return -(s - s_hat) ** 2 * np.log(s / s_hat)
+
+
+@njit(cache=True)
+def barrier_first_derivative(s, s_hat):
+    # b' = -2 (s - ŝ) ln(s/ŝ) - (s - ŝ)² / s
+    if s >= s_hat:
+        return 0.0
+    r = s - s_hat
+    return -2.0 * r * np.log(s / s_hat) - r * r / s
+
+
+@njit(cache=True)
+def barrier_second_derivative(s, s_hat):
+    # b'' = -2 ln(s/ŝ) - 4 (s - ŝ)/s + (s - ŝ)²/s²
+    if s >= s_hat:
+        return 0.0
+    r = s - s_hat
+    return -2.0 * np.log(s / s_hat) - 4.0 * r / s + (r / s) ** 2
+
+
+@njit(cache=True)
+def barrier_and_derivatives(s, s_hat):
+    """(b, b', b'') at s in one pass (one logarithm); all three are 0 for s ≥ ŝ.
+    For s ≤ 0 the value is +inf (the derivatives are then meaningless)."""
+    if s >= s_hat:
+        return 0.0, 0.0, 0.0
+    if s <= 0.0:
+        return np.inf, -np.inf, np.inf
+    r = s - s_hat
+    lg = np.log(s / s_hat)
+    b = -r * r * lg  # b = −(s − ŝ)² ln(s/ŝ)
+    db = -2.0 * r * lg - r * r / s  # b' = −2 (s − ŝ) ln(s/ŝ) − (s − ŝ)²/s
+    d2b = -2.0 * lg - 4.0 * r / s + (r / s) ** 2  # b'' = −2 ln(s/ŝ) − 4 (s − ŝ)/s + (s − ŝ)²/s²
+    return b, db, d2b
+
+
+@njit(cache=True)
+def balanced_stiffness(g_barrier, g_rest, kappa_min, kappa_max):
+    """κ = clamp(−(g_B · g_E) / ‖g_B‖², κ_min, κ_max), κ_min where g_B = 0: the κ that
+    balances the barrier's force against the rest (``contact/stiffness.py``), summed in
+    index order (``linalg.dot``) wherever it is taken."""
+    gb2 = dot(g_barrier, g_barrier)
+    if gb2 == 0.0:
+        return kappa_min
+    kappa = -dot(g_barrier, g_rest) / gb2
+    if kappa < kappa_min:
+        return kappa_min
+    if kappa > kappa_max:
+        return kappa_max
+    return kappa
+
+
+@njit(cache=True)
+def stiffness_doubles(last_d2, d2, eps_sq):
+    """The original's doubling of κ: the closest contact is tighter than dTol (ε² =
+    eps_sq) and getting tighter (squared distances)."""
+    return last_d2 < eps_sq and d2 < eps_sq and d2 < last_d2

@@ -1,0 +1,394 @@
+"""Continuous collision detection for linear trajectories: additive CCD (ACCD).
+
+After Li, Kaufman and Jiang 2021 ("Codimensional Incremental Potential Contact"), section 4.
+Every vertex moves on q(t) = q0 + t·dq, t in [0, 1]. For a point-triangle (PT) stencil
+(p, t0, t1, t2) or an edge-edge (EE) stencil (a0, a1, b0, b1), the unsquared distance d(t) is
+1-Lipschitz in the relative position of any point pair, so
+
+    |d'(t)| <= l_p,   l_p = max_i |dt_i - dp|             (PT)
+                      l_p = max_{i,j} |da_i - db_j|       (EE)
+
+(the relative motion of p against any convex combination of t0, t1, t2, or of any point of
+edge a against any point of edge b). From a time t with distance d, advancing by
+
+    δ = s·d / l_p,   s = (1 - f)·(1 - 1e-3)
+
+keeps d ≥ (1 - s)·d > 0 on all of [t, t + δ]. ACCD repeats such steps until one would end
+with d < f·d0 (f = ``min_gap_fraction``, 0.1 in the paper). It then takes one last step of
+(d - f·d0)/l_p, over which d ≥ f·d0 is guaranteed, and stops. So the time returned is never past
+the time of impact, the distance stays positive on the whole interval, and it is at least f·d0
+at the returned time. (The paper stops without the last step, which in oblique approaches can
+leave α well short of the time of impact.) The (1 - 1e-3) keeps the first step of a head-on
+approach (where the bound is exact and d lands on f·d0 exactly) clear of the stop test under
+rounding.
+
+Cost: a head-on approach takes 2 steps; an approach at normal speed v_n takes about
+2.6·l_p / v_n steps. Sliding at a small gap d takes about l_p / (0.9·d) steps: that is the only
+tail, and ``max_iterations`` cuts it (the query then keeps the safe time it has reached, which
+is conservative). ``ccd_max_step`` runs the queries in rounds of growing iteration budget and
+drops every query whose safe time already reaches the smallest finished result, so long queries
+only run while they could still lower the step.
+
+Distances are those of ``kernels/contact/distance.py`` (closest feature chosen as ipctk does, then
+that feature's distance), the ones the barrier uses; ``point_triangle_distance_sq(q)`` and
+``edge_edge_distance_sq(q)`` here only take the stencil as one (4, 3) array. They are not
+lower bounds, and need not be. A computed distance d_c = (1 + e)·d (d the exact one)
+advances by δ = s·d_c/l_p, over which the exact distance stays at least
+d − l_p·δ = (1 − s·(1 + e))·d. With s = (1 − f)(1 − 1e-3) that is at least f·d (the step
+keeps its gap fraction) while e ≤ 1e-3/(1 − 1e-3), and positive while e < 1/s − 1 (0.11 for
+f = 0.1). The stop test compares computed distances, so the gap at the returned time is
+f·d0 up to the same relative error.
+
+The rounding error is a few ulps of the coordinate scale, |d_c − d| ≤ c·ε·scale (scale =
+largest coordinate magnitude of the stencil over the step), c of order one for well-shaped
+primitives (measured against 60-digit references at distances from 1e-12 to 1e-1 of the
+scale, up to 1e3 away from the origin: c < 2 for triangles without angles under 10° and
+edges crossing at 3° or more; tests/kernels/test_ccd_distances.py asserts c ≤ 4). Queries
+closer than ``1e-12·scale`` count as touching (they return 0: float64 cannot resolve them),
+so e ≤ c·ε·scale/d ≤ c·2.2e-4 < 1e-3 down to that threshold, and e ≤ c·2.2e-6 from
+1e-10·scale on: the relative rounding is covered by the 1e-3 margin, and positivity by a
+hundred times more. c grows with ill-conditioning: as 1/sin of the smallest angle of a
+sliver triangle (its plane is known only that well; c ≈ 700 was seen for an angle of
+7e-6 rad), and for edges within sin θ ≲ 1e-7 of parallel, whose closest features are then
+uncertain, the error reaches the smaller of ε·L/sin θ and L·sin θ, at most about 1e-8·L
+(L the edge length; below sin²θ = 2.5e-16, distance.EE_PARALLEL_THRESHOLD, they are
+treated as parallel), which is more than 11 % of d only for d below ~1e-7·L.
+Degenerate triangles (collinear vertices) are measured by their three edges.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from ipcsim.compiler.jit import njit, prange
+
+from ipcsim.kernels.contact.distance import edge_edge_distance_sq as ee_distance_sq_of_points
+from ipcsim.kernels.contact.distance import point_triangle_distance_sq as pt_distance_sq_of_points
+from ipcsim.compiler.threads import running_parallel
+
+DEFAULT_MIN_GAP_FRACTION = 0.1
+DEFAULT_MAX_ITERATIONS = 10_000
+_STEP_SAFETY = 1.0 - 1e-3
+_TINY_REL = 1e-12  # distances below this times the coordinate scale count as touching
+_CHUNK = 64  # queries per parallel task
+_SERIAL_BELOW = 256  # fewer queries than this run on one thread
+
+# query state columns
+_T, _D0, _LP, _DONE, _ITERS = 0, 1, 2, 3, 4
+
+
+@njit(cache=True)
+def _rows(q):
+    # the four rows of a (4, 3) stencil as tuples (registers: no array views, no refcounts)
+    return ((q[0, 0], q[0, 1], q[0, 2]), (q[1, 0], q[1, 1], q[1, 2]),
+            (q[2, 0], q[2, 1], q[2, 2]), (q[3, 0], q[3, 1], q[3, 2]))
+
+
+@njit(cache=True)
+def point_triangle_distance_sq(q):
+    """``distance.point_triangle_distance_sq`` (closest feature chosen automatically) of
+    the stencil q = (p, t0, t1, t2) given as one (4, 3) array."""
+    p, t0, t1, t2 = _rows(q)
+    return pt_distance_sq_of_points(p, t0, t1, t2)
+
+
+@njit(cache=True)
+def edge_edge_distance_sq(q):
+    """``distance.edge_edge_distance_sq`` (closest feature chosen automatically) of the
+    stencil q = (ea0, ea1, eb0, eb1) given as one (4, 3) array."""
+    a0, a1, b0, b1 = _rows(q)
+    return ee_distance_sq_of_points(a0, a1, b0, b1)
+
+
+@njit(cache=True)
+def _distance(q, is_pt):
+    # the distance of a stencil given as a tuple of four points
+    if is_pt:
+        return np.sqrt(pt_distance_sq_of_points(q[0], q[1], q[2], q[3]))
+    return np.sqrt(ee_distance_sq_of_points(q[0], q[1], q[2], q[3]))
+
+
+# The per-query helpers read a stencil's points into tuples (registers) and are inlined at
+# the numba IR level: a call that takes arrays, or views of them, costs atomic reference
+# counts per array, which was most of a query's cost.
+
+@njit(cache=True, inline="always")
+def _stencil(x0, x1, stencils, k):
+    # (q0, dq): the four points of stencil k at t = 0 and their motions x1 - x0
+    a, b, c, d = stencils[k, 0], stencils[k, 1], stencils[k, 2], stencils[k, 3]
+    q0 = ((x0[a, 0], x0[a, 1], x0[a, 2]), (x0[b, 0], x0[b, 1], x0[b, 2]),
+          (x0[c, 0], x0[c, 1], x0[c, 2]), (x0[d, 0], x0[d, 1], x0[d, 2]))
+    dq = ((x1[a, 0] - x0[a, 0], x1[a, 1] - x0[a, 1], x1[a, 2] - x0[a, 2]),
+          (x1[b, 0] - x0[b, 0], x1[b, 1] - x0[b, 1], x1[b, 2] - x0[b, 2]),
+          (x1[c, 0] - x0[c, 0], x1[c, 1] - x0[c, 1], x1[c, 2] - x0[c, 2]),
+          (x1[d, 0] - x0[d, 0], x1[d, 1] - x0[d, 1], x1[d, 2] - x0[d, 2]))
+    return q0, dq
+
+
+@njit(cache=True, inline="always")
+def _point_at(p, dp, t):
+    # p + t·dp
+    return (p[0] + t * dp[0], p[1] + t * dp[1], p[2] + t * dp[2])
+
+
+@njit(cache=True)
+def _distance_at(q0, dq, t, is_pt):
+    # _distance of q(t) = q0 + t·dq
+    q = (_point_at(q0[0], dq[0], t), _point_at(q0[1], dq[1], t),
+         _point_at(q0[2], dq[2], t), _point_at(q0[3], dq[3], t))
+    return _distance(q, is_pt)
+
+
+@njit(cache=True, inline="always")
+def _relative_motion(u, v):
+    dx = u[0] - v[0]
+    dy = u[1] - v[1]
+    dz = u[2] - v[2]
+    return np.sqrt(dx * dx + dy * dy + dz * dz)
+
+
+@njit(cache=True)
+def _motion_bound(dq, is_pt):
+    # l_p: PT max_i |dt_i - dp|; EE max_{i in a, j in b} |da_i - db_j|
+    if is_pt:
+        lp = max(0.0, _relative_motion(dq[0], dq[1]))
+        lp = max(lp, _relative_motion(dq[0], dq[2]))
+        return max(lp, _relative_motion(dq[0], dq[3]))
+    lp = max(0.0, _relative_motion(dq[0], dq[2]))
+    lp = max(lp, _relative_motion(dq[0], dq[3]))
+    lp = max(lp, _relative_motion(dq[1], dq[2]))
+    return max(lp, _relative_motion(dq[1], dq[3]))
+
+
+@njit(cache=True)
+def _scale(q0, dq):
+    # the largest coordinate magnitude of the stencil at t = 0 and t = 1
+    scale = 0.0
+    for r in range(4):
+        p = q0[r]
+        dp = dq[r]
+        for a in range(3):
+            scale = max(scale, abs(p[a]), abs(p[a] + dp[a]))
+    return scale
+
+
+@njit(cache=True, inline="always")
+def _init_query(x0, x1, stencils, k, is_pt, state):
+    # state[k] = [t, d0, l_p, done, iterations]
+    q0, dq = _stencil(x0, x1, stencils, k)
+    scale = _scale(q0, dq)
+    d0 = _distance(q0, is_pt)
+    lp = _motion_bound(dq, is_pt)
+    state[k, _T] = 0.0
+    state[k, _D0] = d0
+    state[k, _LP] = lp
+    state[k, _ITERS] = 0.0
+    state[k, _DONE] = 0.0
+    if not d0 > _TINY_REL * scale:  # touching (or NaN): no step
+        state[k, _DONE] = 1.0
+    elif lp == 0.0:  # no relative motion: the distance never changes
+        state[k, _T] = 1.0
+        state[k, _DONE] = 1.0
+
+
+@njit(cache=True, inline="always")
+def _advance_query(x0, x1, stencils, k, is_pt, state, tmax, n_iter, f):
+    # at most n_iter ACCD steps from the safe time state[k, _T], never past tmax
+    q0, dq = _stencil(x0, x1, stencils, k)
+    t = state[k, _T]
+    lp = state[k, _LP]
+    gap = f * state[k, _D0]
+    s = (1.0 - f) * _STEP_SAFETY
+    d = _distance_at(q0, dq, t, is_pt)
+    iters = state[k, _ITERS]
+    for _ in range(n_iter):
+        iters += 1.0
+        t_next = min(t + s * d / lp, tmax)  # d >= (1 - s)·d > 0 on [t, t_next]
+        d_next = _distance_at(q0, dq, t_next, is_pt)
+        if not d_next >= gap:  # the gap would fall under f·d0: one last, shorter step,
+            # d >= d - l_p·τ >= f·d0 on [t, t + (d - f·d0) / l_p], then stop
+            t_last = min(t + _STEP_SAFETY * (d - gap) / lp, tmax)
+            if t_last > t:
+                if _distance_at(q0, dq, t_last, is_pt) >= gap:
+                    t = t_last
+            state[k, _T] = t
+            state[k, _DONE] = 1.0
+            state[k, _ITERS] = iters
+            return
+        t = t_next
+        d = d_next
+        if t >= tmax:
+            state[k, _T] = tmax
+            state[k, _DONE] = 1.0
+            state[k, _ITERS] = iters
+            return
+    state[k, _T] = t
+    state[k, _ITERS] = iters
+
+
+@njit(cache=True)
+def _init_chunk(x0, x1, stencils, n_pt, state, c):
+    for k in range(c * _CHUNK, min((c + 1) * _CHUNK, stencils.shape[0])):
+        _init_query(x0, x1, stencils, k, k < n_pt, state)
+
+
+@njit(cache=True, parallel=True)
+def _init_parallel(x0, x1, stencils, n_pt, state):
+    for c in prange((stencils.shape[0] + _CHUNK - 1) // _CHUNK):
+        _init_chunk(x0, x1, stencils, n_pt, state, c)
+
+
+@njit(cache=True)
+def _init_serial(x0, x1, stencils, n_pt, state):
+    for c in range((stencils.shape[0] + _CHUNK - 1) // _CHUNK):
+        _init_chunk(x0, x1, stencils, n_pt, state, c)
+
+
+@njit(cache=True)
+def _advance_chunk(x0, x1, stencils, n_pt, state, active, params, c):
+    # params = (tmax, iterations per query, f); every query writes only its own state row
+    tmax, n_iter, f = params[0], int(params[1]), params[2]
+    for i in range(c * _CHUNK, min((c + 1) * _CHUNK, active.shape[0])):
+        k = active[i]
+        _advance_query(x0, x1, stencils, k, k < n_pt, state, tmax, n_iter, f)
+
+
+@njit(cache=True, parallel=True)
+def _advance_parallel(x0, x1, stencils, n_pt, state, active, params):
+    for c in prange((active.shape[0] + _CHUNK - 1) // _CHUNK):
+        _advance_chunk(x0, x1, stencils, n_pt, state, active, params, c)
+
+
+@njit(cache=True)
+def _advance_serial(x0, x1, stencils, n_pt, state, active, params):
+    for c in range((active.shape[0] + _CHUNK - 1) // _CHUNK):
+        _advance_chunk(x0, x1, stencils, n_pt, state, active, params, c)
+
+
+@njit(cache=True)
+def max_step_serial(x0, x1, stencils, n_pt, f, max_iterations):
+    # ccd_max_step's rounds on one thread in one call (a tiny scene sweeps its few pairs
+    # every Newton iteration: the rounds' array work in Python cost more than the queries)
+    n = stencils.shape[0]
+    state = np.empty((n, 5))
+    _init_serial(x0, x1, stencils, n_pt, state)
+    active = np.empty(n, dtype=np.int64)
+    alpha = 1.0
+    budget = 8
+    spent = 0
+    while True:
+        for k in range(n):
+            if state[k, _DONE] != 0.0 and state[k, _T] < alpha:
+                alpha = state[k, _T]
+        m = 0
+        for k in range(n):
+            if state[k, _DONE] == 0.0 and state[k, _T] < alpha:
+                active[m] = k
+                m += 1
+        if m == 0 or spent >= max_iterations:
+            break
+        n_iter = min(budget, max_iterations - spent)
+        for i in range(m):
+            k = active[i]
+            _advance_query(x0, x1, stencils, k, k < n_pt, state, alpha, n_iter, f)
+        spent += n_iter
+        budget *= 4
+    for k in range(n):
+        if state[k, _DONE] == 0.0 and state[k, _T] < alpha:
+            alpha = state[k, _T]
+    return alpha
+
+
+def _in_parallel(n_queries: int) -> bool:
+    """Many queries on more than one thread (``compiler.threads.running_parallel``): a parallel launch
+    costs more than a few queries do, and a serial run compiles no parallel variant."""
+    return running_parallel() and n_queries > _SERIAL_BELOW
+
+
+def _init(x0, x1, stencils, n_pt):
+    state = np.empty((stencils.shape[0], 5))
+    run = _init_parallel if _in_parallel(stencils.shape[0]) else _init_serial
+    run(x0, x1, stencils, n_pt, state)
+    return state
+
+
+def _advance(x0, x1, stencils, n_pt, state, active, params):
+    """Advance the ``active`` queries; params = (t_max, iterations, min gap fraction)."""
+    # a few queries run serially: a parallel launch costs more than they do
+    run = _advance_parallel if _in_parallel(active.shape[0]) else _advance_serial
+    run(x0, x1, stencils, n_pt, state, active, np.array(params, dtype=np.float64))
+
+
+def _stack_stencils(pt_pairs, ee_pairs, n_vertices):
+    pt = np.ascontiguousarray(pt_pairs, dtype=np.int64).reshape(-1, 4)
+    ee = np.ascontiguousarray(ee_pairs, dtype=np.int64).reshape(-1, 4)
+    stencils = np.ascontiguousarray(np.concatenate([pt, ee]))
+    if stencils.size and (stencils.min() < 0 or stencils.max() >= n_vertices):
+        raise ValueError("stencil vertex index out of range")
+    return stencils, pt.shape[0]
+
+
+def _check(x0, x1, min_gap_fraction, max_iterations):
+    x0 = np.ascontiguousarray(x0, dtype=np.float64)
+    x1 = np.ascontiguousarray(x1, dtype=np.float64)
+    if x0.shape != x1.shape or x0.ndim != 2 or x0.shape[1] != 3:
+        raise ValueError("x0 and x1 must both be (n, 3) arrays")
+    if not 0.0 < min_gap_fraction < 1.0:
+        raise ValueError("min_gap_fraction must lie in (0, 1)")
+    if max_iterations < 1:
+        raise ValueError("max_iterations must be at least 1")
+    return x0, x1
+
+
+def ccd_query_steps(x0, x1, pt_pairs, ee_pairs, min_gap_fraction=DEFAULT_MIN_GAP_FRACTION,
+                    max_iterations=DEFAULT_MAX_ITERATIONS):
+    """Safe step of every query, each run on its own over [0, 1] (no pruning).
+
+    Returns ``(steps, iterations)``: PT queries first, then EE, each a float array."""
+    x0, x1 = _check(x0, x1, min_gap_fraction, max_iterations)
+    stencils, n_pt = _stack_stencils(pt_pairs, ee_pairs, x0.shape[0])
+    state = _init(x0, x1, stencils, n_pt)
+    active = np.flatnonzero(state[:, _DONE] == 0.0)
+    if active.size:
+        _advance(x0, x1, stencils, n_pt, state, active,
+                 (1.0, float(max_iterations), float(min_gap_fraction)))
+    return state[:, _T].copy(), state[:, _ITERS].copy()
+
+
+def ccd_max_step(x0, x1, pt_pairs, ee_pairs, min_gap_fraction=DEFAULT_MIN_GAP_FRACTION,
+                 max_iterations=DEFAULT_MAX_ITERATIONS):
+    """Largest step α in [0, 1] such that moving every vertex from x0 towards x1 by α keeps
+    every PT stencil ``(p, t0, t1, t2)`` and EE stencil ``(ea0, ea1, eb0, eb1)`` apart, with a
+    gap of at least ``min_gap_fraction`` times its initial distance at α (ACCD)."""
+    x0, x1 = _check(x0, x1, min_gap_fraction, max_iterations)
+    stencils, n_pt = _stack_stencils(pt_pairs, ee_pairs, x0.shape[0])
+    if stencils.shape[0] == 0:
+        return 1.0
+    f = float(min_gap_fraction)
+    if not _in_parallel(stencils.shape[0]):
+        return max_step_serial(x0, x1, stencils, n_pt, f, int(max_iterations))
+    return _max_step_rounds(x0, x1, stencils, n_pt, f, max_iterations)
+
+
+def _max_step_rounds(x0, x1, stencils, n_pt, f, max_iterations):
+    """ccd_max_step's rounds, each a kernel launch over the queries still running (the
+    parallel ones on many threads); ``max_step_serial`` runs the same rounds in one call."""
+    state = _init(x0, x1, stencils, n_pt)
+    alpha = 1.0
+    budget = 8
+    spent = 0
+    while True:
+        done = state[:, _DONE] != 0.0
+        if done.any():
+            alpha = min(alpha, float(state[done, _T].min()))
+        # a running query matters only while its safe time is below the current minimum
+        active = np.flatnonzero(~done & (state[:, _T] < alpha))
+        if active.size == 0 or spent >= max_iterations:
+            break
+        n_iter = min(budget, max_iterations - spent)
+        _advance(x0, x1, stencils, n_pt, state, active, (alpha, float(n_iter), f))
+        spent += n_iter
+        budget *= 4
+    running = state[:, _DONE] == 0.0
+    if running.any():  # iteration budget spent: keep the safe time reached
+        alpha = min(alpha, float(state[running, _T].min()))
+    return alpha

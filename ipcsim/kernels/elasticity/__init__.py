@@ -1,0 +1,2 @@
+"""Elastic energies of tetrahedra (neo-Hookean, fixed corotated) and their inversion
+bound."""
