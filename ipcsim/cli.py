@@ -189,7 +189,12 @@ def _add_sweep(sub, options: bool = True) -> None:
         return
     p.add_argument("study", help="study file (.toml)")
     p.add_argument("-o", "--output", metavar="DIR",
-                   help="study folder (default: [study] output, else output/<study-stem>)")
+                   help="study folder (default: [study] output, else output/<study-stem>): "
+                        "new, empty or the study's own (re-running continues it)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="run the study afresh: its study.csv, study.png and run folders "
+                        "in DIR are replaced (only once the study has been planned); "
+                        "nothing else there is touched")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--workers", type=_positive_int, metavar="N",
                        help="worker processes of the local cluster (default: one per core)")

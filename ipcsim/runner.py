@@ -163,6 +163,7 @@ class _Run(Struct):
     mode: str
     steps: int | None
     reporter: Reporter
+    lock: object = None  # this process's hold on ``out`` (io.output_folder.FolderLock)
     render: bool = False
     first_step: int = 0  # the checkpoint's step when resuming
     frames: object = None
@@ -192,8 +193,9 @@ class _Run(Struct):
 
 
 def _build(spec, out_dir, mode: str, steps, reporter: Reporter) -> _Run:
-    """Build and check everything; nothing is written yet."""
-    from .io.output_folder import default_output_folder, resolve_output_folder
+    """Build and check everything, and hold the output folder (created, and its lock file
+    in it, where it did not exist); nothing else is written yet."""
+    from .io.output_folder import default_output_folder, hold_folder, resolve_output_folder
     from .scene.digest import inputs_digest
 
     if mode not in MODES:
@@ -204,8 +206,13 @@ def _build(spec, out_dir, mode: str, steps, reporter: Reporter) -> _Run:
         reporter.scene_name or scene_path, spec.append_str)
     out = resolve_output_folder(requested, scene_path, mode=mode)
     run = _Run(spec, model, sim, out, inputs_digest(spec), mode, steps, reporter)
+    run.lock = hold_folder(out)  # before the checkpoint is read: nobody else writes now
     if run.resume:
-        run.first_step = _check_resume(run)
+        try:
+            run.first_step = _check_resume(run)
+        except BaseException:
+            run.lock.release()
+            raise
     return run
 
 
@@ -446,6 +453,8 @@ def run(spec, out_dir=None, *, steps: int | None = None, mode: str = "new",
         _run_info(r, status, failure, wall0, started)
     except (OSError, OutputError) as exc:
         raise _output_error(r, exc) from None
+    finally:
+        r.lock.release()
     if status == 130:
         raise RunInterrupted(message)
     if status != 0:

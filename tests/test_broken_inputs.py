@@ -401,14 +401,68 @@ RESUME = [
                                                   ws.resume())[1], "nothing to resume"),
 ]
 
-CASES = RUN + CHECK + FRAMES + CONVERT + COMPARE + RENDER + RESUME
+# ----------------------------------------------------------------------------- sweep
+
+STUDY = '[study]\nscene = "good.txt"\n\n[[vary]]\n"time.dt" = [0.01, 0.02]\n'
+
+
+def _study(ws, text: str = STUDY) -> str:
+    return ws.text("study.toml", text)
+
+
+def _sweep(ws, *extra, study: str | None = None):
+    return ["sweep", study or _study(ws), "-o", ws.p("study_out"), "--serial", "-q", *extra]
+
+
+def _users_study_files(ws, folder: str = ".") -> None:
+    (ws.root / folder).mkdir(exist_ok=True)
+    (ws.root / folder / "study.csv").write_text("trial,result\n1,good\n")
+    (ws.root / folder / "study.png").write_bytes(b"\x89PNG mine")
+
+
+SWEEP = [
+    Case("sweep -o . holding the user's study.csv", lambda ws: (
+        _users_study_files(ws), ["sweep", _study(ws), "-o", ".", "--serial", "-q"])[1],
+        "current directory"),
+    Case("sweep -o a folder holding the user's study.csv", lambda ws: (
+        _users_study_files(ws, "mine"), ["sweep", _study(ws), "-o", ws.p("mine"),
+                                         "--serial", "-q"])[1], "--overwrite"),
+    Case("sweep -o a run's folder", lambda ws: ["sweep", _study(ws), "-o", str(ws.prev),
+                                                "--serial", "-q"], "holds an ipcsim run"),
+    Case("sweep --overwrite onto a run's folder", lambda ws: [
+        "sweep", _study(ws), "-o", str(ws.prev), "--serial", "-q", "--overwrite"],
+        "holds an ipcsim run"),
+    Case("sweep range of infinitely many values", lambda ws: _sweep(ws, study=_study(
+        ws, STUDY.replace("[0.01, 0.02]", "{ start = 0.01, stop = 0.02, step = 5e-324 }"))),
+        "study.toml:5"),
+    Case("sweep range spanning 2e308", lambda ws: _sweep(ws, study=_study(
+        ws, STUDY.replace("[0.01, 0.02]", "{ start = -1e308, stop = 1e308, step = 1e307 }"))),
+        "study.toml:5"),
+    Case("sweep linear range spanning 2e308", lambda ws: _sweep(ws, study=_study(
+        ws, STUDY.replace("[0.01, 0.02]", "{ start = -1e308, stop = 1e308, num = 3 }"))),
+        "run 0 (time.dt = -1e+308)"),
+    Case("sweep --scheduler unknown scheme", lambda ws: [
+        "sweep", _study(ws), "-o", ws.p("study_out"), "--scheduler", "foo://host:8786"],
+        "foo://host:8786"),
+    Case("sweep --scheduler port not a number", lambda ws: [
+        "sweep", _study(ws), "-o", ws.p("study_out"), "--scheduler", "tcp://host:abc"],
+        "tcp://host:abc"),
+    Case("sweep --scheduler bad IPv6 address", lambda ws: [
+        "sweep", _study(ws), "-o", ws.p("study_out"), "--scheduler", "tcp://[::1:8786"],
+        "tcp://[::1:8786"),
+    Case("sweep chart.y names no column", lambda ws: _sweep(ws, study=_study(
+        ws, STUDY + '\n[chart]\ny = "newton_iters"\n')), "study.toml:8"),
+]
+
+CASES = RUN + CHECK + FRAMES + CONVERT + COMPARE + RENDER + RESUME + SWEEP
 if not _pardiso_installed():
     CASES += PARDISO
 
 
 def test_the_suite_is_broad():
     commands = {c.id.split()[0] for c in CASES}
-    assert {"run", "check", "frames", "convert", "compare", "render", "resume"} <= commands
+    assert {"run", "check", "frames", "convert", "compare", "render", "resume",
+            "sweep"} <= commands
     assert len({c.id for c in CASES}) == len(CASES) >= 60
 
 

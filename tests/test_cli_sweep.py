@@ -9,9 +9,11 @@ iteration count and bitwise the same final positions (study.csv's
 from __future__ import annotations
 
 import csv
+import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 
 import pytest
@@ -194,3 +196,85 @@ def test_the_example_study_of_the_user_guide_plans(repo_root, tmp_path):
     assert [t.parameters for t in tasks] == [{"time.dt": h} for h in (0.04, 0.02, 0.01, 0.005)]
     assert reference is not None and reference.steps == 800
     assert len({t.folder for t in tasks}) == 4 and spec.output.name == "cube_drop_dt"
+
+
+def _one_run(steps: int) -> str:
+    return (STUDY.replace('"time.dt" = [0.02, 0.01]', '"time.dt" = [0.02]')
+            .replace('"contact.dhat" = [1e-3, 3e-3, 1e-2]', '"contact.dhat" = [1e-3]')
+            .replace("[study]", f"[study]\nsteps = {steps}"))
+
+
+def test_fewer_steps_never_replace_a_finished_run(study, tmp_path, capsys):
+    """A finished 20-step run is found again by its digest (which leaves the step count
+    out) when the study asks for 5: it is kept, and the study refused, until --overwrite."""
+    out = tmp_path / "out"
+    study.write_text(_one_run(20))
+    assert main(["sweep", str(study), "-o", str(out), "--serial", "-q"]) == 0
+    folder = next((out / "runs").iterdir())
+    kept = {p: p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+    study.write_text(_one_run(5))
+    capsys.readouterr()
+    assert main(["sweep", str(study), "-o", str(out), "--serial", "-q"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and str(folder) in err and "--overwrite" in err, err
+    assert {p: p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()} == kept
+    assert main(["sweep", str(study), "-o", str(out), "--serial", "-q", "--overwrite"]) == 0
+    assert _rows(out)["0"]["steps_done"] == "5"
+
+
+def test_a_study_continues_in_its_own_folder_and_overwrite_keeps_the_users_files(
+        study, tmp_path):
+    out = tmp_path / "out"
+    study.write_text(_one_run(3))
+    assert main(["sweep", str(study), "-o", str(out), "--serial", "-q"]) == 0
+    (out / "notes.txt").write_text("mine")
+    assert main(["sweep", str(study), "-o", str(out), "--serial", "-q"]) == 0
+    assert _rows(out)["0"]["action"] == "skipped"
+    assert main(["sweep", str(study), "-o", str(out), "--serial", "-q", "--overwrite"]) == 0
+    assert _rows(out)["0"]["action"] == "ran" and (out / "notes.txt").read_text() == "mine"
+
+
+def _ipcsim(*argv, timeout: float, env=None) -> subprocess.CompletedProcess:
+    """``python -m ipcsim ARGV`` in a fresh process, killed after ``timeout`` s (a hang
+    fails the test instead of holding the suite)."""
+    return subprocess.run([sys.executable, "-m", "ipcsim", *argv], capture_output=True,
+                          text=True, timeout=timeout, env=env)
+
+
+def _one_error_line(done, status: int, *fragments: str) -> None:
+    err = done.stderr.strip()
+    assert done.returncode == status, err
+    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
+    for fragment in fragments:
+        assert fragment in err, err
+
+
+def test_a_study_file_that_is_a_fifo_is_refused_at_once(tmp_path):
+    fifo = tmp_path / "study.toml"
+    os.mkfifo(fifo)
+    done = _ipcsim("sweep", str(fifo), "-o", str(tmp_path / "out"), "--serial", timeout=60)
+    _one_error_line(done, 2, str(fifo), "not a regular file")
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.fixture
+def http_server():
+    """An HTTP server on a free local port: something that listens but is no Dask
+    scheduler (it waits for a request line that Dask's handshake never sends)."""
+    from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+
+    server = ThreadingHTTPServer(("127.0.0.1", 0), BaseHTTPRequestHandler)
+    server.daemon_threads = True
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    yield f"tcp://127.0.0.1:{server.server_address[1]}"
+    server.shutdown()
+    server.server_close()
+
+
+def test_a_scheduler_that_is_no_dask_scheduler_is_refused_in_bounded_time(study, tmp_path,
+                                                                           http_server):
+    env = {**os.environ, "DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT": "2s"}
+    done = _ipcsim("sweep", str(study), "-o", str(tmp_path / "out"), "--scheduler",
+                   http_server, "-q", timeout=120, env=env)
+    _one_error_line(done, 2, http_server, "no Dask scheduler answered within 2 s")

@@ -7,12 +7,11 @@ as ``path:line: what is wrong``; warnings are collected in ``SceneSpec.warnings`
 
 from __future__ import annotations
 
-import os
-import stat
 from pathlib import Path
 
 from ..errors import OutputError, SceneError
 from ..atomic import atomic_write_text
+from ..files import NotRegularFileError, read_regular_file
 from .spec import (
     DirichletSpec,
     InitialVelocitySpec,
@@ -70,24 +69,22 @@ def scene_format(path) -> str:
                                  "(IPC script) or .toml")
 
 
-def read_scene_text(path) -> str:
+def read_scene_text(path, kind: str = "scene file") -> str:
     """The file's text (UTF-8, a BOM allowed); a SceneError when it cannot be read, is not
-    a regular file, is larger than :data:`MAX_SCENE_BYTES` or is not text."""
+    a regular file, is larger than :data:`MAX_SCENE_BYTES` or is not text. ``kind`` names
+    the file in messages (a study file is read by the same rules)."""
     try:
-        info = os.stat(path)
-        if stat.S_ISDIR(info.st_mode):
-            raise SceneError(path, None, "is a folder, not a scene file")
-        if not stat.S_ISREG(info.st_mode):
-            raise SceneError(path, None, "is not a regular file (a device, a pipe or a "
-                                         "socket), so it cannot be a scene file")
-        _check_size(path, info.st_size)
-        with open(path, "rb") as f:
-            data = f.read(MAX_SCENE_BYTES + 1)
+        data = read_regular_file(path, MAX_SCENE_BYTES + 1)
     except FileNotFoundError:
-        raise SceneError(path, None, "scene file not found") from None
+        raise SceneError(path, None, f"{kind} not found") from None
+    except IsADirectoryError:
+        raise SceneError(path, None, f"is a folder, not a {kind}") from None
+    except NotRegularFileError:
+        raise SceneError(path, None, "is not a regular file (a device, a pipe or a "
+                                     f"socket), so it cannot be a {kind}") from None
     except OSError as exc:
-        raise SceneError(path, None, f"cannot read scene file ({exc.strerror or exc})") from None
-    _check_size(path, len(data))
+        raise SceneError(path, None, f"cannot read {kind} ({exc.strerror or exc})") from None
+    _check_size(path, len(data), kind)
     return scene_text(data, path)
 
 
@@ -107,9 +104,9 @@ def scene_text(data: bytes, path) -> str:
     return text
 
 
-def _check_size(path, size: int) -> None:
+def _check_size(path, size: int, kind: str = "scene file") -> None:
     if size > MAX_SCENE_BYTES:
-        raise SceneError(path, None, f"is {size / 2**20:.3g} MiB; ipcsim reads scene files of "
+        raise SceneError(path, None, f"is {size / 2**20:.3g} MiB; ipcsim reads {kind}s of "
                                      f"at most {MAX_SCENE_BYTES // 2**20} MiB (a hand-written "
                                      "scene is a few KB; `shapeMatrix` or a [[shapes]] matrix "
                                      "makes many copies of a shape)")

@@ -8,12 +8,12 @@ import io
 import math
 from pathlib import Path
 
+from ..io.output_folder import STUDY_CHART as CHART_NAME
+from ..io.output_folder import STUDY_COLUMNS as _FIRST
+from ..io.output_folder import STUDY_TABLE as TABLE_NAME
+
 __all__ = ["write_table", "read_table", "reference_errors", "chart", "TABLE_NAME",
            "CHART_NAME"]
-
-TABLE_NAME = "study.csv"
-CHART_NAME = "study.png"
-_FIRST = ("run", "status", "error")
 _LAST = ("folder", "action", "inputs_sha256")
 
 
