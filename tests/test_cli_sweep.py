@@ -278,3 +278,51 @@ def test_a_scheduler_that_is_no_dask_scheduler_is_refused_in_bounded_time(study,
     done = _ipcsim("sweep", str(study), "-o", str(tmp_path / "out"), "--scheduler",
                    http_server, "-q", timeout=120, env=env)
     _one_error_line(done, 2, http_server, "no Dask scheduler answered within 2 s")
+
+
+def test_sigterm_ends_a_study_on_dask_as_it_ends_a_serial_one(study, tmp_path):
+    """SIGTERM to `ipcsim sweep` (a batch scheduler's) stops it as Ctrl-C does, on Dask
+    as with --serial: exit status 130, no traceback, no leaked resources reported, and
+    the interrupted run resumes when the study is run again."""
+    out = tmp_path / "out"
+    study.write_text(_one_run(100_000).replace("duration = 0.5", "duration = 10000"))
+    (tmp_path / "drop.toml").write_text(SCENE.replace("duration = 0.5", "duration = 10000"))
+    proc = subprocess.Popen([sys.executable, "-m", "ipcsim", "sweep", str(study), "-o",
+                             str(out), "--workers", "1", "-q"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 240
+        while not list(out.glob("runs/*/checkpoint.npz")):
+            assert proc.poll() is None, proc.communicate()
+            assert time.monotonic() < deadline, "no run started"
+            time.sleep(0.05)
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "leaked" not in err, err
+    assert "run the same `ipcsim sweep` again" in err, err
+    import numpy as np
+
+    folder = next((out / "runs").iterdir())
+    with np.load(folder / "checkpoint.npz") as checkpoint:
+        step = int(checkpoint["step"])
+    study.write_text(_one_run(step + 3).replace("duration = 0.5", "duration = 10000"))
+    assert main(["sweep", str(study), "-o", str(out), "--serial", "-q"]) == 0
+    row = _rows(out)["0"]
+    assert row["action"] == "resumed" and row["steps_done"] == str(step + 3), row
+
+
+def test_study_csv_has_exactly_the_columns_the_study_declares(study, tmp_path):
+    """StudySpec.columns (what chart.y is checked against) is study.csv's header: with
+    final_state, check_frames and a reference run, and without them."""
+    out = tmp_path / "out"
+    full = _one_run(3) + '\n[reference]\nset = { "time.dt" = 0.01 }\n'
+    for text, name in ((full, "full"), (_one_run(3).replace("check_frames = true",
+                                                             "final_state = false"), "bare")):
+        study.write_text(text)
+        assert main(["sweep", str(study), "-o", str(out / name), "--serial", "-q"]) == 0
+        with open(out / name / "study.csv", newline="") as f:
+            header = next(csv.reader(f))
+        assert sorted(header) == sorted(load_study(study).columns), name

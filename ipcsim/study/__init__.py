@@ -84,7 +84,7 @@ def _execute(study, out, everything, executor, progress_mode, say) -> tuple[list
     """Run what is not finished yet, writing study.csv after each run and at the end;
     returns study.csv's rows (with the errors against the reference) and how many runs
     were executed."""
-    from .executors import StudyProgress
+    from .executors import StudyProgress, sigterm_as_interrupt
 
     rows: dict[str, dict] = {}  # digest -> row
     for t in everything:
@@ -99,7 +99,7 @@ def _execute(study, out, everything, executor, progress_mode, say) -> tuple[list
     reference = everything[-1] if everything[-1].name == "reference" else None
     try:
         if todo:
-            with executor:
+            with sigterm_as_interrupt(), executor:
                 for task, row in executor.results(todo, progress):
                     rows[task.digest] = row
                     progress.finished(task, row)

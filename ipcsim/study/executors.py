@@ -13,13 +13,17 @@ from __future__ import annotations
 import logging
 import math
 import os
+import signal
 import sys
+import threading
 import time
+from contextlib import contextmanager
 
 from ..errors import IpcsimError, excerpt, one_line
 from .runs import WORKER_ENV, RunTask, describe, execute
 
-__all__ = ["SerialExecutor", "DaskExecutor", "StudyProgress", "INSTALL_HINT", "default_workers"]
+__all__ = ["SerialExecutor", "DaskExecutor", "StudyProgress", "INSTALL_HINT", "default_workers",
+           "sigterm_as_interrupt"]
 
 INSTALL_HINT = ('ipcsim sweep runs on Dask, which is not installed: pip install '
                 '"ipcsim[cluster]" (or run the study in this process with --serial)')
@@ -32,6 +36,27 @@ def default_workers() -> int:
     if hasattr(os, "sched_getaffinity"):
         return max(1, len(os.sched_getaffinity(0)))
     return max(1, os.cpu_count() or 1)
+
+
+@contextmanager
+def sigterm_as_interrupt():
+    """While the study runs, SIGTERM (a batch scheduler's, ``timeout``'s) stops it as
+    Ctrl-C does: a KeyboardInterrupt in this thread, so that the executor shuts its
+    cluster down (no worker or semaphore is left behind) and the study ends with status
+    130, resumable. A run in this process (``--serial``) turns it into "stop after this
+    step" itself, as ``ipcsim run`` does."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _failed(task: RunTask, error: str) -> dict:
@@ -161,6 +186,9 @@ class DaskExecutor:
                 why = (f"no Dask scheduler answered within {_connect_timeout():g} s (Dask's "
                        "distributed.comm.timeouts.connect); is it one?")
             raise IpcsimError(f"cannot start or reach {where}: {excerpt(why, 200)}") from None
+        except BaseException:  # Ctrl-C or SIGTERM while the cluster starts: shut it down
+            self.__exit__()
+            raise
         return self
 
     def __exit__(self, *exc):
