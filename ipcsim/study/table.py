@@ -78,8 +78,12 @@ def reference_errors(rows: list[dict], reference: dict) -> None:
     ref = _frames(reference["folder"])
     if not ref:
         return
-    first = read_frame(ref[min(ref)]).points
-    diagonal = float(np.linalg.norm(first.max(axis=0) - first.min(axis=0))) or 1.0
+    from ..io.compare import CompareError, scene_size
+
+    try:  # compare's scale: NaN coordinates never make every error NaN
+        diagonal = scene_size(read_frame(ref[min(ref)]).points)
+    except CompareError:
+        return
     cache: dict = {}
     for row in rows:
         if row.get("status") != "ok":
