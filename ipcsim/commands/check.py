@@ -9,7 +9,8 @@ The scene check sets the simulation up as ``run`` does, so it refuses what ``run
 (shapes that intersect or touch at the start, a vertex on or below a plane, an inverted
 tet, a linear solver that is not installed).
 
-The frame check needs nothing but the output folder: it reads ``frames/series.pvd``, and
+The frame check needs nothing but the output folder (its scene.toml, or the scene given
+as ``check SCENE --frames OUT``, which must be the run's): it reads ``frames/series.pvd``, and
 for every frame tests every surface edge against every surface triangle it shares no
 vertex with (exact segment–triangle predicate), every tet's orientation and the simulated
 vertices against the scene's planes. Pairs between two kinematic obstacles are not judged
@@ -64,9 +65,10 @@ def report(scene, model, out=None) -> None:
         w(f"  {name:<{width}}  {value}\n")
 
 
-def check_frames(folder: Path, out=None, totals: dict | None = None) -> int:
-    """Exact intersection and inversion check of every frame of a run. ``totals``, when
-    given, receives the counts summed over frames: ``intersections``, ``inverted_tets``,
+def check_frames(folder: Path, out=None, totals: dict | None = None, scene=None) -> int:
+    """Exact intersection and inversion check of every frame of a run, against its
+    scene (``scene``, else its scene.toml: :func:`run_scene`). ``totals``, when given,
+    receives the counts summed over frames: ``intersections``, ``inverted_tets``,
     ``below_plane`` (and ``obstacle_contacts``, which are not problems)."""
     from ..errors import IpcsimError
     from ..io.vtk import SERIES_NAME, FrameError, read_frame, read_series
@@ -75,7 +77,7 @@ def check_frames(folder: Path, out=None, totals: dict | None = None) -> int:
     pvd = Path(folder) / "frames" / SERIES_NAME
     if not pvd.is_file():
         raise IpcsimError(f"{folder}: no frames to check ({pvd} not found)")
-    planes, self_collision = _scene_of_run(Path(folder))
+    planes, self_collision = _scene_of_run(Path(folder), scene)
     series = read_series(pvd)
     if not series:
         raise FrameError(f"{pvd}: lists no frames")
@@ -173,17 +175,34 @@ class _FrameChecker:
         return problems
 
 
-def _scene_of_run(folder: Path):
-    """From the run's scene.toml: ((origins, normals) of its planes or None, whether self
-    collision is on). Without a scene.toml: no planes, self collision on."""
-    import numpy as np
-
+def run_scene(folder: Path, scene=None):
+    """The scene a run's frames are checked against: ``scene`` (a SceneSpec the user
+    gave, which must be the run's: its scene.toml, where there is one, must say the
+    same) or the run's own scene.toml. Without either the planes cannot be checked, and
+    the check is refused rather than passed (exit status 2)."""
+    from ..errors import IpcsimError
     from ..scene import load_scene
 
-    scene_file = folder / "scene.toml"
-    if not scene_file.is_file():
-        return None, True
-    scene = load_scene(scene_file)
+    scene_file = Path(folder) / "scene.toml"
+    if scene is not None:
+        if scene_file.exists() and load_scene(scene_file) != scene:
+            raise IpcsimError(f"{scene.source} (with its --set values) is not the scene of "
+                              f"the run in {folder} (its scene.toml differs); leave it out "
+                              "to check the frames against the run's own scene")
+        return scene
+    if not scene_file.exists():
+        raise IpcsimError(f"{scene_file}: not found; the frames cannot be checked against "
+                          "the run's planes without the run's scene: give it, `ipcsim "
+                          f"check SCENE --frames {folder}`")
+    return load_scene(scene_file)  # refuses a folder or a special file in its place
+
+
+def _scene_of_run(folder: Path, scene=None):
+    """((origins, normals) of the run's planes or None, whether self collision is on),
+    from :func:`run_scene`."""
+    import numpy as np
+
+    scene = run_scene(folder, scene)
     planes = None
     if scene.planes:
         planes = (np.array([p.origin for p in scene.planes], dtype=float),
@@ -192,19 +211,26 @@ def _scene_of_run(folder: Path):
 
 
 def main(args) -> int:
+    from ..errors import IpcsimError
     from .common import load_and_build
+    from .run import overrides_of
 
+    overrides = overrides_of(args.set)
     if getattr(args, "frames", None):
-        return check_frames(Path(args.frames))
-    if not args.scene:
-        from ..errors import IpcsimError
+        if overrides and not args.scene:
+            raise IpcsimError("check --frames: --set changes a scene, and none was given: "
+                              f"ipcsim check SCENE --frames {args.frames} --set ...")
+        scene = None
+        if args.scene:
+            from ..scene import load_scene
 
+            scene = load_scene(Path(args.scene), overrides)
+        return check_frames(Path(args.frames), scene=scene)
+    if not args.scene:
         raise IpcsimError("check needs a scene file or --frames OUTPUT_FOLDER")
     # the simulation is set up too: it refuses what `run` would (intersecting or touching
     # shapes at the start, a vertex on or below a plane, an inverted tet, a missing solver)
-    from .run import overrides_of
-
-    scene, model, _ = load_and_build(args.scene, overrides=overrides_of(args.set),
+    scene, model, _ = load_and_build(args.scene, overrides=overrides,
                                      warn=lambda message: None)
     report(scene, model)
     return 0
