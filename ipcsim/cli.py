@@ -64,25 +64,25 @@ def _cmd_compare(args) -> int:
 
 
 def _positive_int(text: str) -> int:
-    """argparse type: a whole number >= 1."""
+    """argparse type: a whole number >= 1 (``ipcsim.arguments``, as the API checks it)."""
+    from .arguments import whole_number_at_least_1
+    from .errors import ArgumentError
+
     try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got '{excerpt(text)}'")
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
-    return value
+        return whole_number_at_least_1(text)
+    except ArgumentError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _finite_float(text: str) -> float:
-    """argparse type: a finite number."""
+    """argparse type: a finite number (``ipcsim.arguments``)."""
+    from .arguments import finite_number
+    from .errors import ArgumentError
+
     try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got '{excerpt(text)}'")
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"must be a finite number, got {text}")
-    return value
+        return finite_number(text)
+    except ArgumentError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 class _Parser(argparse.ArgumentParser):

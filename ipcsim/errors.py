@@ -30,6 +30,11 @@ class IpcsimError(Exception):
     exit_status = 2
 
 
+class ArgumentError(IpcsimError, ValueError):
+    """An argument of a command or of the Python API that cannot be used (``--steps -1``,
+    ``ipcsim.run(spec, steps=1.5)``); ``ipcsim.arguments`` checks both alike."""
+
+
 class SceneError(IpcsimError):
     """A mistake in a scene file, reported as ``path:line: message``."""
 

@@ -198,8 +198,6 @@ def _build(spec, out_dir, mode: str, steps, reporter: Reporter) -> _Run:
     from .io.output_folder import default_output_folder, hold_folder, resolve_output_folder
     from .scene.digest import inputs_digest
 
-    if mode not in MODES:
-        raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
     model, sim = build(spec, reporter.warn)
     scene_path = spec.source if spec.source is not None else Path("scene")
     requested = out_dir if out_dir is not None else default_output_folder(
@@ -444,6 +442,7 @@ def run(spec, out_dir=None, *, steps: int | None = None, mode: str = "new",
     ``RunInterrupted`` (130) on Ctrl-C, both after run.json is written."""
     from .io.run_info import now_iso
 
+    steps = check_arguments(spec, out_dir, steps, mode, render, reporter)
     reporter = reporter or Reporter()
     wall0, started = time.perf_counter(), now_iso()
     r = _build(spec, out_dir, mode, steps, reporter)  # all checked before writing
@@ -467,6 +466,33 @@ def run(spec, out_dir=None, *, steps: int | None = None, mode: str = "new",
                       "steps_not_converged)")
     return RunResult(r.out, r.sim.state.step, r.n_steps, r.first_step, r.newton_total,
                      r.warned, wall, r.sim.state)
+
+
+def check_arguments(spec, out_dir, steps, mode, render, reporter) -> int | None:
+    """:func:`run`'s arguments checked before anything is built or written, as the
+    command line checks its own (``ipcsim.arguments``): an ArgumentError (exit status 2,
+    a ValueError) names the one that cannot be used. Returns ``steps`` as a number."""
+    from .arguments import flag, folder_path, whole_number_at_least_1
+    from .errors import ArgumentError
+    from .scene import SceneSpec
+
+    if not isinstance(spec, SceneSpec):
+        raise ArgumentError("spec must be a SceneSpec (ipcsim.load_scene(path)), got "
+                            f"{type(spec).__name__}")
+    if out_dir is not None:
+        folder_path(out_dir, "out_dir")
+    if mode not in MODES:
+        raise ArgumentError(f"mode must be one of {', '.join(MODES)}, got {excerpt(repr(mode))}")
+    flag(render, "render")
+    if reporter is not None and not isinstance(reporter, Reporter):
+        raise ArgumentError("reporter must be an ipcsim.Reporter, got "
+                            f"{type(reporter).__name__}")
+    if steps is None:
+        return None
+    try:
+        return whole_number_at_least_1(steps)
+    except ArgumentError as exc:
+        raise ArgumentError(f"steps: {exc}") from None
 
 
 def _output_error(run: _Run, exc: OSError | OutputError) -> OutputError:
