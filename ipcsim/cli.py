@@ -127,10 +127,11 @@ def _add_check(sub, options: bool = True) -> None:
         return
     p.add_argument("scene", nargs="?", help="scene file (.txt or .toml)")
     p.add_argument("--frames", metavar="OUT",
-                   help="check every frame of the run in OUT for intersections, "
-                        "inverted tets and vertices below a plane (exact "
-                        "predicates); exit 1 if any. The planes come from OUT/scene.toml, "
-                        "or from SCENE (with --set) when given, which must be the run's")
+                   help="check every frame of the run in OUT for intersections (a body "
+                        "inside another included), inverted tets and vertices below a "
+                        "plane (exact predicates); exit 1 if any. The planes come from "
+                        "OUT/scene.toml, or from SCENE (with --set) when given, which "
+                        "must be the run's")
     _add_set(p)
     p.set_defaults(func=_cmd_check)
 

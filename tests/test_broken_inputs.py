@@ -100,6 +100,14 @@ def _msh_with_first_element_node(ws: Workspace, name: str, tag: str) -> str:
 
 
 POINTS, TETS = box_tet_mesh(1, 1, 1, size=(0.2, 0.2, 0.2), origin=(-0.1, 0.0, -0.1))
+# a 1 m cube (cube.msh scaled 5x) with cube.msh wholly inside it, and one mesh of two
+# nested parts: a solid inside a solid, though no surface crosses another
+CUBE_IN_CUBE = ("shapes input 2\ncube.msh 0 0.01 0  0 0 0  5 5 5\n"
+                "cube.msh 0 0.4 0  0 0 0  1 1 1\nground 0 0\ntime 0.04 0.01\n")
+INNER_POINTS, INNER_TETS = box_tet_mesh(1, 1, 1, size=(0.05, 0.05, 0.05),
+                                        origin=(-0.025, 0.075, -0.025))
+NESTED = (np.concatenate([POINTS, INNER_POINTS]),
+          [("tetra", np.concatenate([TETS, INNER_TETS + len(POINTS)]))])
 
 
 # ----------------------------------------------------------------------------- run
@@ -182,6 +190,10 @@ RUN = [
     Case("run intersecting start", lambda ws: _run(ws, ws.scene(
         f"shapes input 2\n{SHAPE}\ncube.msh 0.05 0.05 0  0 0 0  1 1 1\nground 0 0\n")),
         "intersect"),
+    Case("run a cube inside a cube", lambda ws: _run(ws, ws.scene(CUBE_IN_CUBE)),
+         "shape 2 (cube) lies inside shape 1 (cube)"),
+    Case("run nested parts of one mesh", lambda ws: _run(ws, ws.mesh_scene(ws.vtu(
+        "nested.vtu", *NESTED))), "shape 1 (nested) has a part inside another"),
     Case("run below the ground", lambda ws: _run(ws, ws.scene(
         "shapes input 1\ncube.msh 0 -0.05 0  0 0 0  1 1 1\nground 0 0\n")), "below a plane"),
     Case("run appendStr with a slash", lambda ws: _run(ws, ws.scene(GOOD + "appendStr a/b\n")),
@@ -225,6 +237,10 @@ PARDISO = [
 CHECK = [
     Case("check intersecting start", lambda ws: ["check", ws.scene(
         f"shapes input 2\n{SHAPE}\ncube.msh 0.05 0.05 0  0 0 0  1 1 1\n")], "intersect"),
+    Case("check a cube inside a cube", lambda ws: ["check", ws.scene(CUBE_IN_CUBE)],
+         "lies inside"),
+    Case("check nested parts of one mesh (self collision off)", lambda ws: [
+        "check", ws.mesh_scene(ws.vtu("nested.vtu", *NESTED))], "has a part inside"),
     Case("check below the ground", lambda ws: ["check", ws.scene(
         "shapes input 1\ncube.msh 0 0 0  0 0 0  1 1 1\nground 0 0.05\n")], "below a plane"),
     Case("check every tet twice", lambda ws: ["check", ws.mesh_scene(ws.vtu(

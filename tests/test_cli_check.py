@@ -128,3 +128,27 @@ def test_check_with_a_scene_and_frames_uses_the_scene_and_its_overrides(dropped,
     capsys.readouterr()
     assert main(["check", "--frames", str(out), "--set", "time.dt=0.02"]) == 2
     assert "--set" in capsys.readouterr().err
+
+
+def test_check_frames_finds_a_cube_moved_inside_another(tmp_path, capsys):
+    """Two cubes apart on the ground; in frame 2 the second sits wholly inside the first
+    (scaled 3x): no surface crosses, yet it is an intersection (exit 1)."""
+    from generated import write_box_msh
+
+    write_box_msh(tmp_path / "cube.msh", cells=(1, 1, 1))
+    scene = tmp_path / "two.txt"
+    scene.write_text("shapes input 2\ncube.msh 0 0.01 0  0 0 0  3 3 3\n"
+                     "cube.msh 1 0.01 0  0 0 0  1 1 1\nground 0 0\ntime 1 0.01\n")
+    out = tmp_path / "out"
+    assert main(["run", str(scene), "-o", str(out), "-q", "--steps", "3"]) == 0
+    assert main(["check", "--frames", str(out)]) == 0
+    frame = out / "frames" / "frame_000002.vtu"
+    mesh = meshio.read(frame)
+    second = mesh.point_data["body_id"] == 1
+    mesh.points[second] += [-1.0, 0.2, 0.0]  # into the big cube's middle
+    meshio.write(frame, mesh)
+    capsys.readouterr()
+    assert main(["check", "--frames", str(out)]) == 1
+    printed = capsys.readouterr().out
+    assert "frame_000002.vtu" in printed and "inside another" in printed
+    assert "body 1 inside body 0" in printed

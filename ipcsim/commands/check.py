@@ -12,8 +12,9 @@ tet, a linear solver that is not installed).
 The frame check needs nothing but the output folder (its scene.toml, or the scene given
 as ``check SCENE --frames OUT``, which must be the run's): it reads ``frames/series.pvd``, and
 for every frame tests every surface edge against every surface triangle it shares no
-vertex with (exact segment–triangle predicate), every tet's orientation and the simulated
-vertices against the scene's planes. Pairs between two kinematic obstacles are not judged
+vertex with (exact segment–triangle predicate), where none crosses whether a part of the
+mesh lies inside another's closed surface (``contact.intersection.find_containments``),
+every tet's orientation and the simulated vertices against the scene's planes. Pairs between two kinematic obstacles are not judged
 (IPC promises nothing there) and are mentioned in a note. Exit status 0 when all frames
 are intersection- and inversion-free, 1 when some are not; a damaged frame or series is a
 typed error (2).
@@ -68,8 +69,9 @@ def report(scene, model, out=None) -> None:
 def check_frames(folder: Path, out=None, totals: dict | None = None, scene=None) -> int:
     """Exact intersection and inversion check of every frame of a run, against its
     scene (``scene``, else its scene.toml: :func:`run_scene`). ``totals``, when given,
-    receives the counts summed over frames: ``intersections``, ``inverted_tets``,
-    ``below_plane`` (and ``obstacle_contacts``, which are not problems)."""
+    receives the counts summed over frames: ``intersections``, ``contained`` (parts
+    inside another), ``inverted_tets``, ``below_plane`` (and ``obstacle_contacts``, which
+    are not problems)."""
     from ..errors import IpcsimError
     from ..io.vtk import SERIES_NAME, FrameError, read_frame, read_series
 
@@ -85,7 +87,8 @@ def check_frames(folder: Path, out=None, totals: dict | None = None, scene=None)
         out.write("the run's scene has self collision off: bodies may pass through each other, "
                   "so only inverted tets and plane sides are checked\n")
     bad, checker = 0, None
-    counts = {"intersections": 0, "inverted_tets": 0, "below_plane": 0, "obstacle_contacts": 0}
+    counts = {"intersections": 0, "contained": 0, "inverted_tets": 0, "below_plane": 0,
+              "obstacle_contacts": 0}
     for time, vtu in series:
         mesh = read_frame(vtu)
         if checker is None:  # connectivity is the same in every frame of a run
@@ -133,6 +136,13 @@ class _FrameChecker:
         ids, inverse = np.unique(body, return_inverse=True)
         moving = np.bincount(inverse, weights=~kinematic, minlength=len(ids)) > 0
         self.obstacle_vertex = ~moving[inverse]
+        self.body = body
+        self.solids = self.moving = None
+        if self_collision:  # parts inside others, by the intersection check's own rules
+            from ..contact.intersection import moving_parts, solids_of
+
+            self.solids = solids_of(self.n, self.tets, surface)
+            self.moving = moving_parts(self.solids, self.obstacle_vertex)
         self.planes = planes
         simulated = np.zeros(self.n, dtype=bool)
         simulated[self.tets.ravel()] = True
@@ -163,6 +173,8 @@ class _FrameChecker:
         if n_pairs or inverted:
             problems.append(f"{n_pairs} intersecting edge-triangle pairs; {inverted} inverted "
                             "tets")
+        if self.solids is not None and n_pairs == 0:  # else a part is partly inside
+            problems += self._contained(x, counts)
         if self.planes is not None and len(self.plane_vertices):
             # simulated vertices must stay strictly on the positive side of every plane
             origins, normals = self.planes
@@ -173,6 +185,21 @@ class _FrameChecker:
             if below:
                 problems.append(f"{below} vertices on or below a plane")
         return problems
+
+    def _contained(self, x, counts: dict) -> list[str]:
+        """Parts of the mesh that lie wholly inside another's closed surface (no surface
+        crosses: ``contact.intersection.find_containments``), unless both are obstacles."""
+        from ..contact.intersection import find_containments
+
+        pairs = find_containments(x, self.solids)
+        pairs = pairs[self.moving[self.solids.labels[pairs]].any(axis=1)] if len(pairs) \
+            else pairs
+        counts["contained"] += len(pairs)
+        if not len(pairs):
+            return []
+        inner, outer = (int(self.body[v]) for v in pairs[0])
+        return [f"{len(pairs)} parts inside another's closed surface (first: a part of body "
+                f"{inner} inside body {outer})"]
 
 
 def run_scene(folder: Path, scene=None):
