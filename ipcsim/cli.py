@@ -282,7 +282,8 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit as exc:  # --help, --version, or a usage error (already printed)
         return exc.code if isinstance(exc.code, int) else 2
     if getattr(args, "func", None) is None:
-        parser.print_help()
+        print(f"ipcsim: error: give a command: {', '.join(_COMMANDS)} (see ipcsim --help)",
+              file=sys.stderr)
         return 2
     if args.func is not _cmd_run:
         resume_collector()  # a run resumes it once built, before its first step

@@ -18,8 +18,10 @@ def excerpt(text, limit: int = EXCERPT_CHARS) -> str:
 
 
 def one_line(message: str, limit: int = 500) -> str:
-    """A message as one line of at most about ``limit`` characters."""
+    """A message as one line of at most about ``limit`` characters, control characters
+    (a file name's escape sequence, say) escaped as ``excerpt`` does."""
     flat = " ".join(str(message).split())
+    flat = "".join(c if c.isprintable() else repr(c)[1:-1] for c in flat)
     return flat if len(flat) <= limit else flat[: limit - 3] + "..."
 
 

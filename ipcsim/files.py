@@ -13,7 +13,7 @@ import errno
 import os
 import stat
 
-__all__ = ["NotRegularFileError", "read_regular_file", "read_regular_text"]
+__all__ = ["NotRegularFileError", "open_regular", "read_regular_file", "read_regular_text"]
 
 
 class NotRegularFileError(OSError):
@@ -24,10 +24,10 @@ class NotRegularFileError(OSError):
                          os.fspath(path))
 
 
-def read_regular_file(path, max_bytes: int | None = None) -> bytes:
-    """The bytes of ``path`` (at most ``max_bytes``, where given). Raises
-    ``FileNotFoundError``, ``IsADirectoryError``, :class:`NotRegularFileError` or another
-    ``OSError``; never blocks on a FIFO or a device."""
+def open_regular(path):
+    """``path`` opened for reading in binary, once it is known to be a regular file.
+    Raises ``FileNotFoundError``, ``IsADirectoryError``, :class:`NotRegularFileError` or
+    another ``OSError``; never blocks on a FIFO or a device."""
     flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0)
     fd = os.open(path, flags)
     try:
@@ -36,12 +36,16 @@ def read_regular_file(path, max_bytes: int | None = None) -> bytes:
             raise IsADirectoryError(errno.EISDIR, "is a folder", os.fspath(path))
         if not stat.S_ISREG(mode):
             raise NotRegularFileError(path)
-        with os.fdopen(fd, "rb", closefd=True) as f:
-            fd = None
-            return f.read() if max_bytes is None else f.read(max_bytes)
-    finally:
-        if fd is not None:
-            os.close(fd)
+        return os.fdopen(fd, "rb", closefd=True)
+    except BaseException:
+        os.close(fd)
+        raise
+
+
+def read_regular_file(path, max_bytes: int | None = None) -> bytes:
+    """The bytes of ``path`` (at most ``max_bytes``, where given): :func:`open_regular`."""
+    with open_regular(path) as f:
+        return f.read() if max_bytes is None else f.read(max_bytes)
 
 
 def read_regular_text(path, encoding: str = "utf-8") -> str:

@@ -487,6 +487,11 @@ def check_arguments(spec, out_dir, steps, mode, render, reporter) -> int | None:
     if reporter is not None and not isinstance(reporter, Reporter):
         raise ArgumentError("reporter must be an ipcsim.Reporter, got "
                             f"{type(reporter).__name__}")
+    from .commands.progress import MODES as PROGRESS
+
+    if reporter is not None and reporter.progress not in PROGRESS:
+        raise ArgumentError(f"reporter.progress must be one of {', '.join(PROGRESS)}, "
+                            f"got {excerpt(repr(reporter.progress))}")
     if steps is None:
         return None
     try:

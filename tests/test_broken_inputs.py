@@ -83,6 +83,8 @@ class Case:
     names: str  # fragment of the one stderr line (the file to blame)
     status: int = 2
     new: str | None = None  # a folder the command may create (a run that fails at step 1)
+    started: str | None = None  # a study folder the command may create (and mark) before
+    # it finds that its cluster cannot be reached
 
 
 def _cut(path: Path, keep: float = 0.5) -> None:
@@ -250,6 +252,8 @@ CHECK = [
     Case("check missing scene", lambda ws: ["check", ws.p("none.txt")], "none.txt"),
     Case("check unknown extension", lambda ws: ["check", ws.scene(GOOD, "scene.yaml")],
          "scene.yaml"),
+    Case("check a scene named with an escape sequence", lambda ws: [
+        "check", ws.scene("tiem 1\n", "red\x1b[31m.txt")], "red\\x1b[31m.txt:1"),
 ]
 
 # ----------------------------------------------------------------------------- check --frames
@@ -415,6 +419,11 @@ RESUME = [
                                               "-q", "--resume"], "none"),
     Case("resume without checkpoint", lambda ws: ((ws.prev / "checkpoint.npz").unlink(),
                                                   ws.resume())[1], "nothing to resume"),
+    Case("resume a folder of the user's", lambda ws: (ws.text("mine/notes.txt", "mine")
+                                                      if os.mkdir(ws.p("mine")) is None else 0,
+                                                      ["run", ws.p("good.txt"), "-o",
+                                                       ws.p("mine"), "-q", "--resume"])[1],
+         "nothing to resume"),
 ]
 
 # ----------------------------------------------------------------------------- sweep
@@ -466,6 +475,17 @@ SWEEP = [
     Case("sweep --scheduler bad IPv6 address", lambda ws: [
         "sweep", _study(ws), "-o", ws.p("study_out"), "--scheduler", "tcp://[::1:8786"],
         "tcp://[::1:8786"),
+    Case("sweep --scheduler tls:// without a TLS context", lambda ws: [
+        "sweep", _study(ws), "-o", ws.p("study_out"), "--scheduler", "tls://127.0.0.1:1"],
+        "tls://127.0.0.1:1", started="study_out"),
+    Case("sweep study.scene is a FIFO", lambda ws: (os.mkfifo(ws.p("fifo.txt")), _sweep(
+        ws, study=_study(ws, STUDY.replace("good.txt", "fifo.txt"))))[1], "not a regular file"),
+    Case("sweep study file over 1 MiB", lambda ws: _sweep(ws, study=_study(
+        ws, STUDY + "#" * (1 << 20))), "a study file is a few KB"),
+    Case("sweep a scene whose mesh is a FIFO", lambda ws: (
+        os.mkfifo(ws.p("fifo.msh")), ws.mesh_scene("fifo.msh", "fifo.txt"),
+        _sweep(ws, study=_study(ws, STUDY.replace("good.txt", "fifo.txt"))))[2],
+        "'fifo.msh' is not a regular file (a device, a pipe or a socket)"),
     Case("sweep chart.y names no column", lambda ws: _sweep(ws, study=_study(
         ws, STUDY + '\n[chart]\ny = "newton_iters"\n')), "study.toml:8"),
 ]
@@ -505,8 +525,10 @@ def snapshot(root: Path) -> dict[str, bytes | None]:
         for f in filenames:
             path = os.path.join(dirpath, f)
             rel = os.path.relpath(path, root)
-            out[rel] = os.readlink(path).encode() if os.path.islink(path) else \
-                Path(path).read_bytes()
+            if os.path.islink(path):
+                out[rel] = os.readlink(path).encode()
+            else:  # a FIFO a case made is no file to read (it would block)
+                out[rel] = Path(path).read_bytes() if os.path.isfile(path) else b"special"
     return out
 
 
@@ -526,13 +548,14 @@ def test_broken_input_is_one_clear_line(case, template, tmp_path, monkeypatch, c
     lines = captured.err.strip().splitlines()
     assert status == case.status, captured.err
     assert "Traceback" not in captured.err + captured.out
+    assert "\x1b" not in captured.err  # a name's escape sequence is shown escaped
     assert len(lines) == 1, captured.err
     assert case.names in lines[0], lines[0]
     after = snapshot(root)
     changed = [p for p, content in before.items() if after.get(p, b"gone") != content]
     assert changed == [], f"changed or removed: {changed}"
     created = [p for p in after if p not in before
-               and not (case.new and Path(p).parts[0] == case.new)]
+               and Path(p).parts[0] not in (case.new, case.started)]
     assert created == [], f"created: {created}"
     if case.new:  # a run that failed in the simulation keeps what it wrote before
         assert (root / case.new / "frames" / "frame_000000.vtu").is_file()

@@ -280,24 +280,28 @@ def test_a_scheduler_that_is_no_dask_scheduler_is_refused_in_bounded_time(study,
     _one_error_line(done, 2, http_server, "no Dask scheduler answered within 2 s")
 
 
-def test_sigterm_ends_a_study_on_dask_as_it_ends_a_serial_one(study, tmp_path):
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+def test_sigterm_ends_a_study_on_dask_as_it_ends_a_serial_one(study, tmp_path, sig):
     """SIGTERM to `ipcsim sweep` (a batch scheduler's) stops it as Ctrl-C does, on Dask
     as with --serial: exit status 130, no traceback, no leaked resources reported, and
-    the interrupted run resumes when the study is run again."""
+    the interrupted run resumes when the study is run again. Ctrl-C (SIGINT) too, even
+    where the process started with SIGINT ignored (in a script's background), as `ipcsim
+    run` stops there (the study used to run on to its end)."""
     out = tmp_path / "out"
     study.write_text(_one_run(100_000).replace("duration = 0.5", "duration = 10000"))
     (tmp_path / "drop.toml").write_text(SCENE.replace("duration = 0.5", "duration = 10000"))
     proc = subprocess.Popen([sys.executable, "-m", "ipcsim", "sweep", str(study), "-o",
                              str(out), "--workers", "1", "-q"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
     try:
         deadline = time.monotonic() + 240
         while not list(out.glob("runs/*/checkpoint.npz")):
             assert proc.poll() is None, proc.communicate()
             assert time.monotonic() < deadline, "no run started"
             time.sleep(0.05)
-        proc.send_signal(signal.SIGTERM)
-        _, err = proc.communicate(timeout=120)
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=60)
     finally:
         proc.kill()
     assert proc.returncode == 130, err
@@ -326,3 +330,44 @@ def test_study_csv_has_exactly_the_columns_the_study_declares(study, tmp_path):
         with open(out / name / "study.csv", newline="") as f:
             header = next(csv.reader(f))
         assert sorted(header) == sorted(load_study(study).columns), name
+
+
+def test_another_study_is_refused_in_a_studys_folder(study, tmp_path, capsys):
+    """A second study file run into the folder of the first replaced its study.csv and
+    study.png: the folder names the study file that writes it (.ipcsim-study)."""
+    out = tmp_path / "out"
+    study.write_text(_one_run(2))
+    assert main(["sweep", str(study), "-o", str(out), "--serial", "-q"]) == 0
+    table = (out / "study.csv").read_bytes()
+    other = tmp_path / "other.toml"
+    other.write_text(_one_run(2).replace('"time.dt" = [0.02]', '"time.dt" = [0.05]'))
+    capsys.readouterr()
+    assert main(["sweep", str(other), "-o", str(out), "--serial", "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "holds the study of study.toml, not of other.toml" in err, err
+    assert (out / "study.csv").read_bytes() == table
+    assert main(["sweep", str(other), "-o", str(out), "--serial", "-q", "--overwrite"]) == 0
+    assert _rows(out)["0"]["time.dt"] == "0.05"
+
+
+@pytest.mark.parametrize("name", ["run.json", "study_row.json"])
+def test_a_fifo_in_a_finished_run_folder_does_not_hang_the_study(study, tmp_path, name):
+    """Re-running a study read a run's run.json and study_row.json whatever they were: a
+    FIFO blocked it for ever. A FIFO study_row.json is no row to reuse (the finished run
+    is found by its checkpoint and skipped); without a readable run.json the run is not
+    known to be finished, its folder cannot be resumed (a FIFO where run.json belongs),
+    and the study runs it again, as it does any damaged run folder of its own."""
+    out = tmp_path / "out"
+    study.write_text(_one_run(2))
+    assert main(["sweep", str(study), "-o", str(out), "--serial", "-q"]) == 0
+    folder = next((out / "runs").iterdir())
+    for gone in {name, "study_row.json"}:
+        (folder / gone).unlink()
+    os.mkfifo(folder / name)
+    done = _ipcsim("sweep", str(study), "-o", str(out), "--serial", "-q", timeout=120)
+    assert "Traceback" not in done.stderr, done.stderr
+    assert done.returncode == 0, done.stderr
+    row = _rows(out)["0"]
+    assert row["status"] == "ok" and row["steps_done"] == "2"
+    assert row["action"] == ("ran" if name == "run.json" else "skipped")
+    assert (folder / "run.json").is_file()

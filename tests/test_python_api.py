@@ -97,3 +97,22 @@ def test_run_refuses_what_is_no_scene(tmp_path):
     with pytest.raises(ValueError, match="spec must be a SceneSpec"):
         ipcsim.run("input/cube_drop.toml", tmp_path / "out")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("call, says", [
+    (lambda root: ipcsim.load_scene(root / "input" / "cube_drop.toml", [("time.dt", 0.01)]),
+     "overrides must be a mapping"),
+    (lambda root: ipcsim.load_scene(root / "input" / "cube_drop.toml", "time.dt=0.01"),
+     "overrides must be a mapping"),
+    (lambda root: ipcsim.build_model(str(root / "input" / "cube_drop.toml")),
+     "build_model takes a SceneSpec"),
+    (lambda root: ipcsim.run(_tiny(root), root / "unused",
+                             reporter=ipcsim.Reporter(progress="fancy")),
+     "reporter.progress must be one of bar, lines, off"),
+])
+def test_the_api_names_an_argument_of_the_wrong_kind(repo_root, call, says):
+    """These were AttributeError tracebacks (overrides, build_model) or silently taken
+    (a progress mode that shows nothing)."""
+    with pytest.raises(ipcsim.ArgumentError, match=says):
+        call(repo_root)
+    assert not (repo_root / "unused").exists()

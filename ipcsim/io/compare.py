@@ -399,7 +399,11 @@ def read_golden(path) -> Reference:
         frames = {int(f["step"]): np.asarray(f["positions"], dtype=np.float64).reshape(-1, 3)
                   for f in data["frames"]}
         log = {c: np.asarray(data["log"][c]) for c in ("step", *COUNT_COLUMNS)}
-        index = np.asarray(data["vertices"], dtype=np.int64)
+        vertices = data["vertices"]
+        if not isinstance(vertices, list) or not all(
+                isinstance(v, int) and not isinstance(v, bool) for v in vertices):
+            raise ValueError("\"vertices\" must list vertex numbers (whole numbers)")
+        index = np.asarray(vertices, dtype=np.int64)
         mesh = dict(data["mesh"])
     except (KeyError, TypeError, ValueError) as exc:
         raise CompareError(f"{path}: damaged golden reference ({exc!r})") from exc

@@ -14,9 +14,10 @@ One process at a time writes a folder: a run (new, overwriting or resumed) and a
 hold theirs with an exclusive ``flock`` on ``.ipcsim-lock`` inside it for as long as they
 write, and a second writer is refused, naming the folder and the holder's pid (which the
 holder writes into the file). The kernel releases the lock when its holder ends, killed
-or not, so no stale lock is ever left; the file itself stays (removing it would race
-with a process about to take it), emptied when its holder lets go, and it is no content
-of the folder (an overwrite keeps it; a folder holding only it counts as empty).
+or not, so no stale lock is ever left. The holder removes the file as it lets go (a
+process that opened it meanwhile sees the name no longer leads to its file and takes
+the new one); a killed holder's file stays, unlocked, and is no content of the folder
+(an overwrite keeps it; a folder holding only it counts as empty).
 """
 
 from __future__ import annotations
@@ -51,10 +52,12 @@ __all__ = [
     "resolve_output_folder",
     "STUDY_CHART",
     "STUDY_COLUMNS",
+    "STUDY_MARK",
     "STUDY_RUNS",
     "STUDY_TABLE",
     "clear_study_folder",
     "is_study_folder",
+    "mark_study_folder",
     "resolve_study_folder",
 ]
 
@@ -64,6 +67,7 @@ STUDY_TABLE = "study.csv"
 STUDY_CHART = "study.png"
 STUDY_RUNS = "runs"
 RUN_DIGEST_CHARS = 16  # a study's run folder: runs/<the first characters of its digest>
+STUDY_MARK = ".ipcsim-study"  # the name of the study file that writes the folder
 STUDY_COLUMNS = ("run", "status", "error")  # study.csv's first columns, always
 
 # Top-level entries a run writes; with overwrite, exactly these are removed.
@@ -227,12 +231,15 @@ class FolderLock:
         self.folder, self._fd = folder, fd
 
     def release(self) -> None:
+        """Remove the lock file, then let the lock go: a process that opened the file
+        meanwhile finds, once it holds the lock, that the name no longer leads to it,
+        and tries again (:func:`hold_folder`)."""
         if self._fd is None:
             return
         try:
-            os.ftruncate(self._fd, 0)  # no pid left behind to mislead a reader
+            os.unlink(self.folder / LOCK_NAME)
         except OSError:
-            pass
+            pass  # gone with its folder (a study's --overwrite), or a read-only folder
         os.close(self._fd)  # closing the file releases the lock
         self._fd = None
 
@@ -249,27 +256,41 @@ def hold_folder(folder, what: str = "output folder") -> FolderLock:
     folder and that process. A file system without locks (some network mounts) is used
     unlocked."""
     folder = Path(folder)
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        fd = os.open(folder / LOCK_NAME, os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0),
-                     0o644)
-    except OSError as exc:
-        raise OutputFolderError(f"cannot use {what} {folder}: {exc.strerror or exc}") from None
-    if fcntl is None:
-        return FolderLock(folder, fd)
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError as exc:
-        if exc.errno not in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
-            return FolderLock(folder, fd)  # no locks here (ENOLCK): go on unlocked
-        holder = _holder(fd)
-        os.close(fd)
-        raise OutputFolderError(f"{what} {folder} is in use by another ipcsim process"
-                                f"{holder}; wait for it to end or stop it, or choose "
-                                "another folder") from None
+    path = folder / LOCK_NAME
+    while True:
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            fd = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0), 0o644)
+        except OSError as exc:
+            raise OutputFolderError(f"cannot use {what} {folder}: "
+                                    f"{exc.strerror or exc}") from None
+        if fcntl is None:
+            return FolderLock(folder, fd)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError as exc:
+            if exc.errno not in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
+                return FolderLock(folder, fd)  # no locks here (ENOLCK): go on unlocked
+            holder = _holder(fd)
+            os.close(fd)
+            raise OutputFolderError(f"{what} {folder} is in use by another ipcsim process"
+                                    f"{holder}; wait for it to end or stop it, or choose "
+                                    "another folder") from None
+        if _names(path, fd):
+            break
+        os.close(fd)  # its holder removed it as we opened it: take the new one
     os.ftruncate(fd, 0)
     os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
     return FolderLock(folder, fd)
+
+
+def _names(path: Path, fd: int) -> bool:
+    """True while ``path`` still leads to the open file ``fd``."""
+    try:
+        here, held = os.stat(path), os.fstat(fd)
+    except OSError:
+        return False
+    return (here.st_dev, here.st_ino) == (held.st_dev, held.st_ino)
 
 
 def _holder(fd: int) -> str:
@@ -311,20 +332,44 @@ def is_study_folder(folder) -> bool:
     ours = table.exists() and _is_study_table(table)
     if table.exists() and not ours or holds_a_run(folder):
         return False
-    return ours or (folder / STUDY_RUNS).is_dir()
+    return ours or (folder / STUDY_RUNS).is_dir() or (folder / STUDY_MARK).is_file()
 
 
-def resolve_study_folder(requested, shared, *, overwrite: bool) -> Path:
-    """The folder a study will write, absolute and normalised, checked before anything is
-    written: a study's own folder (its runs are continued, or replaced with
-    ``overwrite``), a new or empty one, or, with ``overwrite``, a folder whose
-    study.csv, study.png and runs/ may be replaced. Refused with
-    :class:`OutputFolderError`: a file in the way, a run's folder, any other folder that
-    holds something (without ``overwrite``), and ``shared`` ((name, folder) pairs: the
-    current directory, the study file's and the scene's folders) or a folder above one,
-    unless it is a study's own."""
+def _study_of(folder: Path) -> str | None:
+    """The name of the study file that wrote ``folder`` (None where it did not say)."""
+    from ..files import read_regular_file
+
+    try:
+        return read_regular_file(folder / STUDY_MARK, 4096).decode("utf-8").strip() or None
+    except (OSError, UnicodeDecodeError):
+        return None
+
+
+def mark_study_folder(folder: Path, study_name: str) -> None:
+    """Note in ``folder`` which study file writes it (:func:`resolve_study_folder`)."""
+    from ..atomic import atomic_write_text
+
+    if _study_of(folder) != study_name:
+        atomic_write_text(Path(folder) / STUDY_MARK, study_name + "\n")
+
+
+def resolve_study_folder(requested, shared, *, overwrite: bool, study_name: str) -> Path:
+    """The folder a study (of the file named ``study_name``) will write, absolute and
+    normalised, checked before anything is written: the study's own folder (its runs are
+    continued, or replaced with ``overwrite``), a new or empty one, or, with
+    ``overwrite``, another study's folder or a folder whose study.csv, study.png and
+    runs/ may be replaced. Refused with :class:`OutputFolderError`: a file in the way, a
+    run's folder, another study's folder and any other folder that holds something
+    (without ``overwrite``), and ``shared`` ((name, folder) pairs: the current
+    directory, the study file's and the scene's folders) or a folder above one, unless
+    it is a study's folder."""
     path = _absolute_folder(requested, "study folder")
     if is_study_folder(path):
+        other = _study_of(path)
+        if other not in (None, study_name) and not overwrite:
+            raise OutputFolderError(f"study folder {path} holds the study of "
+                                    f"{excerpt(other, 80)}, not of {excerpt(study_name, 80)}; "
+                                    "pass --overwrite to replace it, or -o another folder")
         _check_writable(path)
         return path
     if holds_a_run(path):
@@ -359,7 +404,8 @@ def clear_study_folder(folder: Path) -> None:
             if not any(runs.iterdir()):
                 runs.rmdir()
         for entry in folder.iterdir():
-            if entry.name in (STUDY_TABLE, STUDY_CHART) or is_temporary_name(entry.name):
+            if entry.name in (STUDY_TABLE, STUDY_CHART, STUDY_MARK) \
+                    or is_temporary_name(entry.name):
                 _remove(entry)
     except OSError as exc:
         raise OutputFolderError(f"cannot clear study folder {folder}: "

@@ -49,14 +49,15 @@ def study_folder(study: StudySpec, requested, overwrite: bool = False) -> Path:
     shared = (("the current directory", Path.cwd()),
               ("the study file's folder", study.path.parent),
               ("the scene's folder", study.scene.parent))
-    return resolve_study_folder(requested, shared, overwrite=overwrite)
+    return resolve_study_folder(requested, shared, overwrite=overwrite,
+                                study_name=study.path.name)
 
 
 def run_study(study: StudySpec, out: Path, executor, progress_mode: str = "off",
               say=lambda message: None, overwrite: bool = False) -> StudyResult:
     """Execute the study into ``out`` (see the module's docstring); ``overwrite`` runs it
     afresh (the study's own files in ``out`` are replaced, once it has been planned)."""
-    from ..io.output_folder import clear_study_folder, hold_folder
+    from ..io.output_folder import clear_study_folder, hold_folder, mark_study_folder
 
     out = study_folder(study, out, overwrite)
     tasks, reference = plan(study, out)
@@ -66,6 +67,7 @@ def run_study(study: StudySpec, out: Path, executor, progress_mode: str = "off",
             clear_study_folder(out)
         else:
             refuse_replacing(everything)
+        mark_study_folder(out, study.path.name)
         final, ran = _execute(study, out, everything, executor, progress_mode, say)
     runs = [r for r in final if r.get("run") != "reference"]  # its error is 0 by definition
     picture = chart(out / CHART_NAME, runs, study.chart.x, study.chart.y, study.keys,
@@ -84,7 +86,7 @@ def _execute(study, out, everything, executor, progress_mode, say) -> tuple[list
     """Run what is not finished yet, writing study.csv after each run and at the end;
     returns study.csv's rows (with the errors against the reference) and how many runs
     were executed."""
-    from .executors import StudyProgress, sigterm_as_interrupt
+    from .executors import StudyProgress, interrupted_by_signals
 
     rows: dict[str, dict] = {}  # digest -> row
     for t in everything:
@@ -99,7 +101,7 @@ def _execute(study, out, everything, executor, progress_mode, say) -> tuple[list
     reference = everything[-1] if everything[-1].name == "reference" else None
     try:
         if todo:
-            with sigterm_as_interrupt(), executor:
+            with interrupted_by_signals(), executor:
                 for task, row in executor.results(todo, progress):
                     rows[task.digest] = row
                     progress.finished(task, row)

@@ -23,7 +23,7 @@ from ..errors import IpcsimError, excerpt, one_line
 from .runs import WORKER_ENV, RunTask, describe, execute
 
 __all__ = ["SerialExecutor", "DaskExecutor", "StudyProgress", "INSTALL_HINT", "default_workers",
-           "sigterm_as_interrupt"]
+           "interrupted_by_signals"]
 
 INSTALL_HINT = ('ipcsim sweep runs on Dask, which is not installed: pip install '
                 '"ipcsim[cluster]" (or run the study in this process with --serial)')
@@ -39,12 +39,14 @@ def default_workers() -> int:
 
 
 @contextmanager
-def sigterm_as_interrupt():
-    """While the study runs, SIGTERM (a batch scheduler's, ``timeout``'s) stops it as
-    Ctrl-C does: a KeyboardInterrupt in this thread, so that the executor shuts its
-    cluster down (no worker or semaphore is left behind) and the study ends with status
-    130, resumable. A run in this process (``--serial``) turns it into "stop after this
-    step" itself, as ``ipcsim run`` does."""
+def interrupted_by_signals():
+    """While the study runs, Ctrl-C (SIGINT) and SIGTERM (a batch scheduler's,
+    ``timeout``'s) stop it alike: a KeyboardInterrupt in this thread, so that the executor
+    shuts its cluster down (no worker or semaphore is left behind) and the study ends with
+    status 130, resumable; also where the process was started with SIGINT ignored (in
+    the background of a script), as ``ipcsim run`` stops there. A run in this process
+    (``--serial``) turns them into "stop after this step" itself, as ``ipcsim run``
+    does."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -52,11 +54,12 @@ def sigterm_as_interrupt():
     def interrupt(signum, frame):
         raise KeyboardInterrupt
 
-    previous = signal.signal(signal.SIGTERM, interrupt)
+    previous = {s: signal.signal(s, interrupt) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for s, handler in previous.items():
+            signal.signal(s, handler)
 
 
 def _failed(task: RunTask, error: str) -> dict:
@@ -178,7 +181,7 @@ class DaskExecutor:
                         processes=True, env=dict(WORKER_ENV), dashboard_address=None,
                         silence_logs=logging.CRITICAL)
                 self.client = Client(self.cluster)
-        except (OSError, TimeoutError, ValueError) as exc:
+        except Exception as exc:  # noqa: BLE001  (OSError, a timeout, TLS without a context...)
             self.__exit__()
             where = self.scheduler or "a local cluster"
             why = one_line(str(exc)) or type(exc).__name__

@@ -84,9 +84,11 @@ def plan(study: StudySpec, out: Path) -> tuple[list[RunTask], RunTask | None]:
 
 def cached_row(task: RunTask) -> dict | None:
     """The row a finished run left, if it still stands for ``task``."""
+    from ..files import read_regular_text
+
     try:
-        saved = json.loads((Path(task.folder) / ROW_FILE).read_text())
-    except (OSError, ValueError):
+        saved = json.loads(read_regular_text(Path(task.folder) / ROW_FILE))
+    except (OSError, ValueError):  # a FIFO or a folder in its place too: no row
         return None
     if not isinstance(saved, dict) or saved.get("key") != json.loads(
             json.dumps(task.cache_key)) or saved.get("row", {}).get("status") != "ok":
@@ -146,8 +148,10 @@ def _mode(task: RunTask) -> str:
 
 
 def _run_info(folder: Path) -> dict:
+    from ..files import read_regular_text
+
     try:
-        info = json.loads((folder / "run.json").read_text())
+        info = json.loads(read_regular_text(folder / "run.json"))
         return info if isinstance(info, dict) else {}
     except (OSError, ValueError):
         return {}

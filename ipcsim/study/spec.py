@@ -308,7 +308,10 @@ def load_study(path) -> StudySpec:
         r.fail("study", "[study] needs scene = \"path of the base scene\"")
     scene = Path(os.path.normpath(path.parent / study["scene"]))
     if not scene.is_file():
-        r.fail("study.scene", f"study.scene: '{excerpt(study['scene'], 80)}' not found "
+        found = "not found" if not scene.exists() else (
+            "is a folder, not a scene file" if scene.is_dir() else
+            "is not a regular file (a device, a pipe or a socket), so it cannot be a scene file")
+        r.fail("study.scene", f"study.scene: '{excerpt(study['scene'], 80)}' {found} "
                               f"(relative to {path.parent})")
     steps = study.get("steps")
     if steps is not None and (isinstance(steps, bool) or not isinstance(steps, int)

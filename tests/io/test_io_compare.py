@@ -168,3 +168,17 @@ def test_a_golden_reference_sampling_a_vertex_the_mesh_lacks_cannot_compare(runs
     assert main(["compare", str(a), str(path)]) == 2
     err = capsys.readouterr().err
     assert "far.json" in err and "not among the mesh's" in err and len(err.splitlines()) == 1
+
+
+def test_a_golden_reference_whose_vertices_are_not_whole_numbers_cannot_compare(runs, tmp_path,
+                                                                                 capsys):
+    """[0.5, ...] was read as vertex 0 and compared (exit 1): a damaged reference."""
+    from ipcsim.io.compare import golden_from_run, write_golden
+
+    a, _, _ = runs
+    golden = golden_from_run(a)
+    golden["vertices"] = [v + 0.5 for v in golden["vertices"]]
+    path = write_golden(tmp_path / "halves.json", golden)
+    assert main(["compare", str(a), str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "halves.json" in err and "whole numbers" in err
