@@ -21,7 +21,7 @@ COMPANIONS = ("_compiled.json", "_compiled.matchers")  # its manifest, its match
 
 
 class BuildKernels(build_ext):
-    """build_ext for the compiled kernels: runs aot_build into the extension's folder."""
+    """build_ext for the compiled kernels: runs compiler/build.py into the extension's folder."""
 
     def build_extension(self, ext):
         if ext.name != COMPILED:

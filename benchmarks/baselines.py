@@ -82,7 +82,7 @@ def run_labelled(scene: Path, out: Path, steps: int | None, budget: float) -> di
     Intersecting (a step noticed it, or a frame fails the exact check), Blow-up,
     QP failure, Timeout; "failed: ..." for anything else."""
     from ipcsim.cli import main as ipcsim_main
-    from ipcsim.commands.check import check_frames
+    from ipcsim.contact.frame_check import check_frames
 
     cmd = ["run", str(scene), "-o", str(out), "--overwrite", "-q"]
     if steps:

@@ -93,7 +93,7 @@ def _read_scene(path: Path, row: Row):
 
 
 def _clean(out: Path, energy: str) -> str:
-    from ipcsim.commands.check import check_frames
+    from ipcsim.contact.frame_check import check_frames
 
     totals: dict = {}
     try:

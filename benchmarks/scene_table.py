@@ -22,7 +22,7 @@ import meshio
 import numpy as np
 
 from ipcsim.cli import main as ipcsim_main
-from ipcsim.commands.check import check_frames
+from ipcsim.contact.frame_check import check_frames
 from ipcsim.io.csv_log import read_csv
 
 

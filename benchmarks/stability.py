@@ -217,7 +217,7 @@ def analyse(out: Path, case: Case, n_planned: int) -> dict:
     whether a body went through something, whether energy appeared from nowhere."""
     import meshio
 
-    from ipcsim.commands.check import check_frames
+    from ipcsim.contact.frame_check import check_frames
     from ipcsim.contact.intersection import check_frame
     from ipcsim.io.csv_log import read_csv
     from ipcsim.io.vtk import SERIES_NAME, read_series

@@ -33,6 +33,7 @@ _EXPORTS = {
     "RunResult": "ipcsim.runner",
     "Reporter": "ipcsim.runner",
     "IpcsimError": "ipcsim.errors",
+    "ArgumentError": "ipcsim.errors",
     "SceneError": "ipcsim.errors",
     "MeshError": "ipcsim.errors",
     "SolverError": "ipcsim.errors",

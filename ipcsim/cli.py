@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import gc
-import math
 import os
 import sys
 import warnings
@@ -23,7 +22,7 @@ from typing import NoReturn
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from . import __version__  # noqa: E402  (numpy loads later, after the BLAS setting)
-from .errors import IpcsimError, SceneError, excerpt, one_line  # noqa: E402
+from .errors import IpcsimError, SceneError, one_line  # noqa: E402
 from .start_up import end_process, pause_collector, resume_collector  # noqa: E402
 
 
@@ -64,25 +63,25 @@ def _cmd_compare(args) -> int:
 
 
 def _positive_int(text: str) -> int:
-    """argparse type: a whole number >= 1."""
+    """argparse type: a whole number >= 1 (``ipcsim.arguments``, as the API checks it)."""
+    from .arguments import whole_number_at_least_1
+    from .errors import ArgumentError
+
     try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got '{excerpt(text)}'")
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
-    return value
+        return whole_number_at_least_1(text)
+    except ArgumentError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _finite_float(text: str) -> float:
-    """argparse type: a finite number."""
+    """argparse type: a finite number (``ipcsim.arguments``)."""
+    from .arguments import finite_number
+    from .errors import ArgumentError
+
     try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got '{excerpt(text)}'")
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"must be a finite number, got {text}")
-    return value
+        return finite_number(text)
+    except ArgumentError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 class _Parser(argparse.ArgumentParser):
@@ -127,8 +126,11 @@ def _add_check(sub, options: bool = True) -> None:
         return
     p.add_argument("scene", nargs="?", help="scene file (.txt or .toml)")
     p.add_argument("--frames", metavar="OUT",
-                   help="check every frame of the run in OUT for intersections and inverted "
-                        "tets (exact predicates); exit 1 if any")
+                   help="check every frame of the run in OUT for intersections (a body "
+                        "inside another included), inverted tets and vertices below a "
+                        "plane (exact predicates); exit 1 if any. The planes come from "
+                        "OUT/scene.toml, or from SCENE (with --set) when given, which "
+                        "must be the run's")
     _add_set(p)
     p.set_defaults(func=_cmd_check)
 
@@ -189,7 +191,12 @@ def _add_sweep(sub, options: bool = True) -> None:
         return
     p.add_argument("study", help="study file (.toml)")
     p.add_argument("-o", "--output", metavar="DIR",
-                   help="study folder (default: [study] output, else output/<study-stem>)")
+                   help="study folder (default: [study] output, else output/<study-stem>): "
+                        "new, empty or the study's own (re-running continues it)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="run the study afresh: its study.csv, study.png and run folders "
+                        "in DIR are replaced (only once the study has been planned); "
+                        "nothing else there is touched")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--workers", type=_positive_int, metavar="N",
                        help="worker processes of the local cluster (default: one per core)")
@@ -274,7 +281,8 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit as exc:  # --help, --version, or a usage error (already printed)
         return exc.code if isinstance(exc.code, int) else 2
     if getattr(args, "func", None) is None:
-        parser.print_help()
+        print(f"ipcsim: error: give a command: {', '.join(_COMMANDS)} (see ipcsim --help)",
+              file=sys.stderr)
         return 2
     if args.func is not _cmd_run:
         resume_collector()  # a run resumes it once built, before its first step

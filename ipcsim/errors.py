@@ -18,8 +18,10 @@ def excerpt(text, limit: int = EXCERPT_CHARS) -> str:
 
 
 def one_line(message: str, limit: int = 500) -> str:
-    """A message as one line of at most about ``limit`` characters."""
+    """A message as one line of at most about ``limit`` characters, control characters
+    (a file name's escape sequence, say) escaped as ``excerpt`` does."""
     flat = " ".join(str(message).split())
+    flat = "".join(c if c.isprintable() else repr(c)[1:-1] for c in flat)
     return flat if len(flat) <= limit else flat[: limit - 3] + "..."
 
 
@@ -28,6 +30,11 @@ class IpcsimError(Exception):
     """Base class of every error ipcsim reports to a user."""
 
     exit_status = 2
+
+
+class ArgumentError(IpcsimError, ValueError):
+    """An argument of a command or of the Python API that cannot be used (``--steps -1``,
+    ``ipcsim.run(spec, steps=1.5)``); ``ipcsim.arguments`` checks both alike."""
 
 
 class SceneError(IpcsimError):

@@ -163,6 +163,7 @@ class _Run(Struct):
     mode: str
     steps: int | None
     reporter: Reporter
+    lock: object = None  # this process's hold on ``out`` (io.output_folder.FolderLock)
     render: bool = False
     first_step: int = 0  # the checkpoint's step when resuming
     frames: object = None
@@ -192,20 +193,24 @@ class _Run(Struct):
 
 
 def _build(spec, out_dir, mode: str, steps, reporter: Reporter) -> _Run:
-    """Build and check everything; nothing is written yet."""
-    from .io.output_folder import default_output_folder, resolve_output_folder
+    """Build and check everything, and hold the output folder (created, and its lock file
+    in it, where it did not exist); nothing else is written yet."""
+    from .io.output_folder import default_output_folder, hold_folder, resolve_output_folder
     from .scene.digest import inputs_digest
 
-    if mode not in MODES:
-        raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
     model, sim = build(spec, reporter.warn)
     scene_path = spec.source if spec.source is not None else Path("scene")
     requested = out_dir if out_dir is not None else default_output_folder(
         reporter.scene_name or scene_path, spec.append_str)
     out = resolve_output_folder(requested, scene_path, mode=mode)
     run = _Run(spec, model, sim, out, inputs_digest(spec), mode, steps, reporter)
+    run.lock = hold_folder(out)  # before the checkpoint is read: nobody else writes now
     if run.resume:
-        run.first_step = _check_resume(run)
+        try:
+            run.first_step = _check_resume(run)
+        except BaseException:
+            run.lock.release()
+            raise
     return run
 
 
@@ -329,7 +334,7 @@ def _step_loop(run: _Run, step_log, newton_log, progress, stop) -> None:
 
 def _simulate(run: _Run) -> tuple[int, str | None, str | None]:
     """Open the output, run the steps; (exit status, failure for run.json, message)."""
-    from .commands.progress import RunProgress
+    from .io.progress import RunProgress
     from .compiler.compiling import compile_seconds
 
     say = run.reporter.say
@@ -437,6 +442,7 @@ def run(spec, out_dir=None, *, steps: int | None = None, mode: str = "new",
     ``RunInterrupted`` (130) on Ctrl-C, both after run.json is written."""
     from .io.run_info import now_iso
 
+    steps = check_arguments(spec, out_dir, steps, mode, render, reporter)
     reporter = reporter or Reporter()
     wall0, started = time.perf_counter(), now_iso()
     r = _build(spec, out_dir, mode, steps, reporter)  # all checked before writing
@@ -446,6 +452,8 @@ def run(spec, out_dir=None, *, steps: int | None = None, mode: str = "new",
         _run_info(r, status, failure, wall0, started)
     except (OSError, OutputError) as exc:
         raise _output_error(r, exc) from None
+    finally:
+        r.lock.release()
     if status == 130:
         raise RunInterrupted(message)
     if status != 0:
@@ -458,6 +466,38 @@ def run(spec, out_dir=None, *, steps: int | None = None, mode: str = "new",
                       "steps_not_converged)")
     return RunResult(r.out, r.sim.state.step, r.n_steps, r.first_step, r.newton_total,
                      r.warned, wall, r.sim.state)
+
+
+def check_arguments(spec, out_dir, steps, mode, render, reporter) -> int | None:
+    """:func:`run`'s arguments checked before anything is built or written, as the
+    command line checks its own (``ipcsim.arguments``): an ArgumentError (exit status 2,
+    a ValueError) names the one that cannot be used. Returns ``steps`` as a number."""
+    from .arguments import flag, folder_path, whole_number_at_least_1
+    from .errors import ArgumentError
+    from .scene import SceneSpec
+
+    if not isinstance(spec, SceneSpec):
+        raise ArgumentError("spec must be a SceneSpec (ipcsim.load_scene(path)), got "
+                            f"{type(spec).__name__}")
+    if out_dir is not None:
+        folder_path(out_dir, "out_dir")
+    if mode not in MODES:
+        raise ArgumentError(f"mode must be one of {', '.join(MODES)}, got {excerpt(repr(mode))}")
+    flag(render, "render")
+    if reporter is not None and not isinstance(reporter, Reporter):
+        raise ArgumentError("reporter must be an ipcsim.Reporter, got "
+                            f"{type(reporter).__name__}")
+    from .io.progress import MODES as PROGRESS
+
+    if reporter is not None and reporter.progress not in PROGRESS:
+        raise ArgumentError(f"reporter.progress must be one of {', '.join(PROGRESS)}, "
+                            f"got {excerpt(repr(reporter.progress))}")
+    if steps is None:
+        return None
+    try:
+        return whole_number_at_least_1(steps)
+    except ArgumentError as exc:
+        raise ArgumentError(f"steps: {exc}") from None
 
 
 def _output_error(run: _Run, exc: OSError | OutputError) -> OutputError:

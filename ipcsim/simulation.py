@@ -22,7 +22,7 @@ from msgspec.structs import replace
 import numpy as np
 
 from .contact.collisions import build_collisions
-from .contact.intersection import find_intersections
+from .contact.intersection import find_intersections, start_containment
 from .contact.setup import ContactSetup
 from .contact.stiffness import BarrierStiffness, kappa_bounds
 from .errors import InfeasibleStartError, NonFiniteError, SolverError
@@ -352,6 +352,14 @@ def check_initial_state(sim: Simulation) -> None:
             raise InfeasibleStartError("initial state has an inverted tetrahedron")
     if contact.mesh is not None:
         _check_initial_mesh_contact(sim.model, contact, x)
+    inside = start_containment(sim.model, contact.mesh, x)
+    if inside is not None:
+        inner, outer = (_shape(sim.model, v) for v in inside)
+        where = (f"{inner} has a part inside another of its parts (its tets overlap)"
+                 if inner == outer else f"{inner} lies inside {outer}")
+        raise InfeasibleStartError(f"initial state: {where}, though no surfaces cross: a "
+                                   "solid inside a solid intersects it; IPC needs an "
+                                   "intersection-free start")
 
 
 def _check_initial_mesh_contact(model, contact: ContactSetup, x) -> None:
@@ -374,10 +382,18 @@ def _check_initial_mesh_contact(model, contact: ContactSetup, x) -> None:
     crossing = [(int(mesh.edges[e, 0]), int(mesh.triangles[t, 0])) for e, t in pairs[:1]]
     for what, found in (("intersect or touch", crossing), ("touch", touching)):
         if found:
-            a, b = (int(model.vertex_shape[v]) for v in found[0])
-            names = model.shape_names
-            who = (f"shape {a + 1} ({names[a]}) and shape {b + 1} ({names[b]})" if a != b
-                   else f"shape {a + 1} ({names[a]}) and itself")
             raise InfeasibleStartError(
-                f"initial state: {who} {what}; IPC needs a positive distance between "
-                "all surfaces at the start")
+                f"initial state: {_shapes(model, *found[0])} {what}; IPC needs a positive "
+                "distance between all surfaces at the start")
+
+
+def _shape(model, v: int) -> str:
+    """The shape of vertex v as a message names it."""
+    a = int(model.vertex_shape[v])
+    return f"shape {a + 1} ({model.shape_names[a]})"
+
+
+def _shapes(model, u: int, v: int) -> str:
+    """The shapes of vertices u and v as a message names them."""
+    a, b = _shape(model, u), _shape(model, v)
+    return f"{a} and {b}" if a != b else f"{a} and itself"

@@ -83,6 +83,8 @@ class Case:
     names: str  # fragment of the one stderr line (the file to blame)
     status: int = 2
     new: str | None = None  # a folder the command may create (a run that fails at step 1)
+    started: str | None = None  # a study folder the command may create (and mark) before
+    # it finds that its cluster cannot be reached
 
 
 def _cut(path: Path, keep: float = 0.5) -> None:
@@ -100,6 +102,14 @@ def _msh_with_first_element_node(ws: Workspace, name: str, tag: str) -> str:
 
 
 POINTS, TETS = box_tet_mesh(1, 1, 1, size=(0.2, 0.2, 0.2), origin=(-0.1, 0.0, -0.1))
+# a 1 m cube (cube.msh scaled 5x) with cube.msh wholly inside it, and one mesh of two
+# nested parts: a solid inside a solid, though no surface crosses another
+CUBE_IN_CUBE = ("shapes input 2\ncube.msh 0 0.01 0  0 0 0  5 5 5\n"
+                "cube.msh 0 0.4 0  0 0 0  1 1 1\nground 0 0\ntime 0.04 0.01\n")
+INNER_POINTS, INNER_TETS = box_tet_mesh(1, 1, 1, size=(0.05, 0.05, 0.05),
+                                        origin=(-0.025, 0.075, -0.025))
+NESTED = (np.concatenate([POINTS, INNER_POINTS]),
+          [("tetra", np.concatenate([TETS, INNER_TETS + len(POINTS)]))])
 
 
 # ----------------------------------------------------------------------------- run
@@ -182,6 +192,10 @@ RUN = [
     Case("run intersecting start", lambda ws: _run(ws, ws.scene(
         f"shapes input 2\n{SHAPE}\ncube.msh 0.05 0.05 0  0 0 0  1 1 1\nground 0 0\n")),
         "intersect"),
+    Case("run a cube inside a cube", lambda ws: _run(ws, ws.scene(CUBE_IN_CUBE)),
+         "shape 2 (cube) lies inside shape 1 (cube)"),
+    Case("run nested parts of one mesh", lambda ws: _run(ws, ws.mesh_scene(ws.vtu(
+        "nested.vtu", *NESTED))), "shape 1 (nested) has a part inside another"),
     Case("run below the ground", lambda ws: _run(ws, ws.scene(
         "shapes input 1\ncube.msh 0 -0.05 0  0 0 0  1 1 1\nground 0 0\n")), "below a plane"),
     Case("run appendStr with a slash", lambda ws: _run(ws, ws.scene(GOOD + "appendStr a/b\n")),
@@ -225,6 +239,10 @@ PARDISO = [
 CHECK = [
     Case("check intersecting start", lambda ws: ["check", ws.scene(
         f"shapes input 2\n{SHAPE}\ncube.msh 0.05 0.05 0  0 0 0  1 1 1\n")], "intersect"),
+    Case("check a cube inside a cube", lambda ws: ["check", ws.scene(CUBE_IN_CUBE)],
+         "lies inside"),
+    Case("check nested parts of one mesh (self collision off)", lambda ws: [
+        "check", ws.mesh_scene(ws.vtu("nested.vtu", *NESTED))], "has a part inside"),
     Case("check below the ground", lambda ws: ["check", ws.scene(
         "shapes input 1\ncube.msh 0 0 0  0 0 0  1 1 1\nground 0 0.05\n")], "below a plane"),
     Case("check every tet twice", lambda ws: ["check", ws.mesh_scene(ws.vtu(
@@ -234,6 +252,8 @@ CHECK = [
     Case("check missing scene", lambda ws: ["check", ws.p("none.txt")], "none.txt"),
     Case("check unknown extension", lambda ws: ["check", ws.scene(GOOD, "scene.yaml")],
          "scene.yaml"),
+    Case("check a scene named with an escape sequence", lambda ws: [
+        "check", ws.scene("tiem 1\n", "red\x1b[31m.txt")], "red\\x1b[31m.txt:1"),
 ]
 
 # ----------------------------------------------------------------------------- check --frames
@@ -399,16 +419,86 @@ RESUME = [
                                               "-q", "--resume"], "none"),
     Case("resume without checkpoint", lambda ws: ((ws.prev / "checkpoint.npz").unlink(),
                                                   ws.resume())[1], "nothing to resume"),
+    Case("resume a folder of the user's", lambda ws: (ws.text("mine/notes.txt", "mine")
+                                                      if os.mkdir(ws.p("mine")) is None else 0,
+                                                      ["run", ws.p("good.txt"), "-o",
+                                                       ws.p("mine"), "-q", "--resume"])[1],
+         "nothing to resume"),
 ]
 
-CASES = RUN + CHECK + FRAMES + CONVERT + COMPARE + RENDER + RESUME
+# ----------------------------------------------------------------------------- sweep
+
+STUDY = '[study]\nscene = "good.txt"\n\n[[vary]]\n"time.dt" = [0.01, 0.02]\n'
+
+
+def _study(ws, text: str = STUDY) -> str:
+    return ws.text("study.toml", text)
+
+
+def _sweep(ws, *extra, study: str | None = None):
+    return ["sweep", study or _study(ws), "-o", ws.p("study_out"), "--serial", "-q", *extra]
+
+
+def _users_study_files(ws, folder: str = ".") -> None:
+    (ws.root / folder).mkdir(exist_ok=True)
+    (ws.root / folder / "study.csv").write_text("trial,result\n1,good\n")
+    (ws.root / folder / "study.png").write_bytes(b"\x89PNG mine")
+
+
+SWEEP = [
+    Case("sweep -o . holding the user's study.csv", lambda ws: (
+        _users_study_files(ws), ["sweep", _study(ws), "-o", ".", "--serial", "-q"])[1],
+        "current directory"),
+    Case("sweep -o a folder holding the user's study.csv", lambda ws: (
+        _users_study_files(ws, "mine"), ["sweep", _study(ws), "-o", ws.p("mine"),
+                                         "--serial", "-q"])[1], "--overwrite"),
+    Case("sweep -o a run's folder", lambda ws: ["sweep", _study(ws), "-o", str(ws.prev),
+                                                "--serial", "-q"], "holds an ipcsim run"),
+    Case("sweep --overwrite onto a run's folder", lambda ws: [
+        "sweep", _study(ws), "-o", str(ws.prev), "--serial", "-q", "--overwrite"],
+        "holds an ipcsim run"),
+    Case("sweep range of infinitely many values", lambda ws: _sweep(ws, study=_study(
+        ws, STUDY.replace("[0.01, 0.02]", "{ start = 0.01, stop = 0.02, step = 5e-324 }"))),
+        "study.toml:5"),
+    Case("sweep range spanning 2e308", lambda ws: _sweep(ws, study=_study(
+        ws, STUDY.replace("[0.01, 0.02]", "{ start = -1e308, stop = 1e308, step = 1e307 }"))),
+        "study.toml:5"),
+    Case("sweep linear range spanning 2e308", lambda ws: _sweep(ws, study=_study(
+        ws, STUDY.replace("[0.01, 0.02]", "{ start = -1e308, stop = 1e308, num = 3 }"))),
+        "run 0 (time.dt = -1e+308)"),
+    Case("sweep --scheduler unknown scheme", lambda ws: [
+        "sweep", _study(ws), "-o", ws.p("study_out"), "--scheduler", "foo://host:8786"],
+        "foo://host:8786"),
+    Case("sweep --scheduler port not a number", lambda ws: [
+        "sweep", _study(ws), "-o", ws.p("study_out"), "--scheduler", "tcp://host:abc"],
+        "tcp://host:abc"),
+    Case("sweep --scheduler bad IPv6 address", lambda ws: [
+        "sweep", _study(ws), "-o", ws.p("study_out"), "--scheduler", "tcp://[::1:8786"],
+        "tcp://[::1:8786"),
+    Case("sweep --scheduler tls:// without a TLS context", lambda ws: [
+        "sweep", _study(ws), "-o", ws.p("study_out"), "--scheduler", "tls://127.0.0.1:1"],
+        "tls://127.0.0.1:1", started="study_out"),
+    Case("sweep study.scene is a FIFO", lambda ws: (os.mkfifo(ws.p("fifo.txt")), _sweep(
+        ws, study=_study(ws, STUDY.replace("good.txt", "fifo.txt"))))[1], "not a regular file"),
+    Case("sweep study file over 1 MiB", lambda ws: _sweep(ws, study=_study(
+        ws, STUDY + "#" * (1 << 20))), "a study file is a few KB"),
+    Case("sweep a scene whose mesh is a FIFO", lambda ws: (
+        os.mkfifo(ws.p("fifo.msh")), ws.mesh_scene("fifo.msh", "fifo.txt"),
+        _sweep(ws, study=_study(ws, STUDY.replace("good.txt", "fifo.txt"))))[2],
+        "'fifo.msh' is not a regular file (a device, a pipe or a socket)"),
+    Case("sweep chart.y names no column", lambda ws: _sweep(ws, study=_study(
+        ws, STUDY + '\n[chart]\ny = "newton_iters"\n')), "study.toml:8"),
+]
+
+CASES = RUN + CHECK + FRAMES + CONVERT + COMPARE + RENDER + RESUME + SWEEP
 if not _pardiso_installed():
     CASES += PARDISO
 
 
 def test_the_suite_is_broad():
     commands = {c.id.split()[0] for c in CASES}
-    assert {"run", "check", "frames", "convert", "compare", "render", "resume"} <= commands
+    assert {"run", "check", "frames", "convert", "compare", "render", "resume",
+            "sweep"} <= commands
     assert len({c.id for c in CASES}) == len(CASES) >= 60
 
 
@@ -435,8 +525,10 @@ def snapshot(root: Path) -> dict[str, bytes | None]:
         for f in filenames:
             path = os.path.join(dirpath, f)
             rel = os.path.relpath(path, root)
-            out[rel] = os.readlink(path).encode() if os.path.islink(path) else \
-                Path(path).read_bytes()
+            if os.path.islink(path):
+                out[rel] = os.readlink(path).encode()
+            else:  # a FIFO a case made is no file to read (it would block)
+                out[rel] = Path(path).read_bytes() if os.path.isfile(path) else b"special"
     return out
 
 
@@ -456,13 +548,14 @@ def test_broken_input_is_one_clear_line(case, template, tmp_path, monkeypatch, c
     lines = captured.err.strip().splitlines()
     assert status == case.status, captured.err
     assert "Traceback" not in captured.err + captured.out
+    assert "\x1b" not in captured.err  # a name's escape sequence is shown escaped
     assert len(lines) == 1, captured.err
     assert case.names in lines[0], lines[0]
     after = snapshot(root)
     changed = [p for p, content in before.items() if after.get(p, b"gone") != content]
     assert changed == [], f"changed or removed: {changed}"
     created = [p for p in after if p not in before
-               and not (case.new and Path(p).parts[0] == case.new)]
+               and Path(p).parts[0] not in (case.new, case.started)]
     assert created == [], f"created: {created}"
     if case.new:  # a run that failed in the simulation keeps what it wrote before
         assert (root / case.new / "frames" / "frame_000000.vtu").is_file()

@@ -59,3 +59,12 @@ def test_no_command_or_an_unknown_one_gets_every_commands_options():
     assert cli._command_in(["--version"]) is None
     assert cli._command_in(["rn", "s.txt"]) is None  # argparse names the choices
     assert cli._command_in(["-h", "run"]) == "run"
+
+
+def test_no_command_is_one_line_on_stderr(capsys):
+    from ipcsim.cli import main
+
+    assert main([]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and len(captured.err.strip().splitlines()) == 1
+    assert "give a command: check, run, sweep" in captured.err

@@ -10,7 +10,7 @@ import pytest
 from generated import write_box_msh
 
 from ipcsim.cli import main
-from ipcsim.commands.progress import RunProgress
+from ipcsim.io.progress import RunProgress
 
 
 @pytest.fixture
@@ -63,7 +63,7 @@ def test_the_time_left_leaves_out_compiling(monkeypatch):
     counts only the time spent stepping."""
     import io
 
-    from ipcsim.commands import progress as pr
+    from ipcsim.io import progress as pr
 
     clock = [100.0]
     monkeypatch.setattr(pr.time, "perf_counter", lambda: clock[0])

@@ -30,6 +30,7 @@ from generated import write_box_msh
 from ipcsim.atomic import is_temporary_name
 from ipcsim.cli import main
 from ipcsim.io import csv_log
+from ipcsim.io.output_folder import LOCK_NAME
 
 KILLS = int(os.environ.get("IPCSIM_FAULT_KILLS", "4"))
 SEED = 20240611
@@ -149,7 +150,7 @@ class _FullDisk:
         real_open, real_line = open, csv_log.CsvLog._write_line
 
         def fail_now(path) -> bool:
-            if self.name in str(path):
+            if self.name in str(path) and Path(path).name != LOCK_NAME:  # output files only
                 self.count += 1
             return self.count >= self.after
 

@@ -56,7 +56,7 @@ def record(scenes: list[str]) -> list[str]:
 
     aot.start_recording()
     import ipcsim
-    from ipcsim.commands.check import check_frames
+    from ipcsim.contact.frame_check import check_frames
 
     with tempfile.TemporaryDirectory() as out, open(os.devnull, "w") as quiet:
         for i, scene in enumerate(scenes):

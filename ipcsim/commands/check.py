@@ -9,13 +9,7 @@ The scene check sets the simulation up as ``run`` does, so it refuses what ``run
 (shapes that intersect or touch at the start, a vertex on or below a plane, an inverted
 tet, a linear solver that is not installed).
 
-The frame check needs nothing but the output folder: it reads ``frames/series.pvd``, and
-for every frame tests every surface edge against every surface triangle it shares no
-vertex with (exact segment–triangle predicate), every tet's orientation and the simulated
-vertices against the scene's planes. Pairs between two kinematic obstacles are not judged
-(IPC promises nothing there) and are mentioned in a note. Exit status 0 when all frames
-are intersection- and inversion-free, 1 when some are not; a damaged frame or series is a
-typed error (2).
+The frame check is ``contact.frame_check.check_frames``.
 """
 
 from __future__ import annotations
@@ -64,147 +58,28 @@ def report(scene, model, out=None) -> None:
         w(f"  {name:<{width}}  {value}\n")
 
 
-def check_frames(folder: Path, out=None, totals: dict | None = None) -> int:
-    """Exact intersection and inversion check of every frame of a run. ``totals``, when
-    given, receives the counts summed over frames: ``intersections``, ``inverted_tets``,
-    ``below_plane`` (and ``obstacle_contacts``, which are not problems)."""
-    from ..errors import IpcsimError
-    from ..io.vtk import SERIES_NAME, FrameError, read_frame, read_series
-
-    out = out or sys.stdout
-    pvd = Path(folder) / "frames" / SERIES_NAME
-    if not pvd.is_file():
-        raise IpcsimError(f"{folder}: no frames to check ({pvd} not found)")
-    planes, self_collision = _scene_of_run(Path(folder))
-    series = read_series(pvd)
-    if not series:
-        raise FrameError(f"{pvd}: lists no frames")
-    if not self_collision:
-        out.write("the run's scene has self collision off: bodies may pass through each other, "
-                  "so only inverted tets and plane sides are checked\n")
-    bad, checker = 0, None
-    counts = {"intersections": 0, "inverted_tets": 0, "below_plane": 0, "obstacle_contacts": 0}
-    for time, vtu in series:
-        mesh = read_frame(vtu)
-        if checker is None:  # connectivity is the same in every frame of a run
-            checker = _FrameChecker(mesh, planes, self_collision)
-        problems = checker.check(mesh, vtu, counts)
-        if problems:
-            bad += 1
-            out.write(f"{vtu.name} (t={time:g} s): {'; '.join(problems)}\n")
-    if totals is not None:
-        totals.update(counts)
-    if counts["obstacle_contacts"]:
-        out.write(f"note: kinematic obstacles touch or overlap each other "
-                  f"({counts['obstacle_contacts']} edge-triangle pairs over all frames); IPC "
-                  "neither prevents nor promises anything between two obstacles\n")
-    clean = "no intersection and no inverted tet" if self_collision else "no inverted tet"
-    out.write(f"checked {len(series)} frames: "
-              + (f"{clean}\n" if bad == 0 else f"{bad} frames with problems\n"))
-    return 0 if bad == 0 else 1
-
-
-class _FrameChecker:
-    """The fixed mesh of a run's frames (from the first one) and what is judged on it:
-    edge-triangle pairs of which at least one side is a simulated body (pairs between two
-    kinematic obstacles are counted apart), tet orientations, and simulated vertices
-    against the scene's planes."""
-
-    def __init__(self, mesh, planes, self_collision: bool):
-        import numpy as np
-
-        from ..contact.intersection import edges_of_triangles
-        from ..model.surface import boundary_triangles
-
-        self.n = len(mesh.points)
-        cells = {c.type: np.asarray(c.data, dtype=np.int64) for c in mesh.cells}
-        self.tets = cells.get("tetra", np.zeros((0, 4), np.int64)).reshape(-1, 4)
-        surface = np.concatenate([boundary_triangles(self.tets),
-                                  cells.get("triangle", np.zeros((0, 3), np.int64))])
-        self.triangles = surface if self_collision else surface[:0]
-        self.edges = edges_of_triangles(self.triangles)
-        body = np.asarray(mesh.point_data.get("body_id", np.zeros(self.n)), dtype=np.int64)
-        kinematic = np.asarray(mesh.point_data.get("kinematic", np.zeros(self.n))) != 0
-        body = body.reshape(self.n, -1)[:, 0]
-        kinematic = kinematic.reshape(self.n, -1)[:, 0]
-        # an obstacle: a body whose every vertex is prescribed
-        ids, inverse = np.unique(body, return_inverse=True)
-        moving = np.bincount(inverse, weights=~kinematic, minlength=len(ids)) > 0
-        self.obstacle_vertex = ~moving[inverse]
-        self.planes = planes
-        simulated = np.zeros(self.n, dtype=bool)
-        simulated[self.tets.ravel()] = True
-        self.plane_vertices = np.flatnonzero(simulated & ~kinematic)
-
-    def check(self, mesh, vtu, counts: dict) -> list[str]:
-        """The problems of one frame (empty when it is clean); ``counts`` accumulates."""
-        import numpy as np
-
-        from ..contact.intersection import find_intersections, inverted_tets
-        from ..io.vtk import FrameError
-
-        x = np.asarray(mesh.points, dtype=np.float64)
-        if len(x) != self.n:
-            raise FrameError(f"{vtu}: {len(x)} vertices, the run's first frame has {self.n}")
-        bad = int((~np.isfinite(x).all(axis=1)).sum())
-        if bad:
-            return [f"{bad} vertices with non-finite coordinates"]
-        pairs = find_intersections(x, self.edges, self.triangles)
-        between_obstacles = (self.obstacle_vertex[self.edges[pairs[:, 0]]].all(axis=1)
-                             & self.obstacle_vertex[self.triangles[pairs[:, 1]]].all(axis=1))
-        counts["obstacle_contacts"] += int(between_obstacles.sum())
-        n_pairs = int((~between_obstacles).sum())
-        inverted = len(inverted_tets(x, self.tets))
-        counts["intersections"] += n_pairs
-        counts["inverted_tets"] += inverted
-        problems = []
-        if n_pairs or inverted:
-            problems.append(f"{n_pairs} intersecting edge-triangle pairs; {inverted} inverted "
-                            "tets")
-        if self.planes is not None and len(self.plane_vertices):
-            # simulated vertices must stay strictly on the positive side of every plane
-            origins, normals = self.planes
-            p = x[self.plane_vertices]
-            below = int((p @ normals.T - np.einsum("pk,pk->p", origins, normals) <= 0.0)
-                        .any(axis=1).sum())
-            counts["below_plane"] += below
-            if below:
-                problems.append(f"{below} vertices on or below a plane")
-        return problems
-
-
-def _scene_of_run(folder: Path):
-    """From the run's scene.toml: ((origins, normals) of its planes or None, whether self
-    collision is on). Without a scene.toml: no planes, self collision on."""
-    import numpy as np
-
-    from ..scene import load_scene
-
-    scene_file = folder / "scene.toml"
-    if not scene_file.is_file():
-        return None, True
-    scene = load_scene(scene_file)
-    planes = None
-    if scene.planes:
-        planes = (np.array([p.origin for p in scene.planes], dtype=float),
-                  np.array([p.normal for p in scene.planes], dtype=float))
-    return planes, scene.self_collision
-
-
 def main(args) -> int:
+    from ..contact.frame_check import check_frames
+    from ..errors import IpcsimError
     from .common import load_and_build
+    from .run import overrides_of
 
+    overrides = overrides_of(args.set)
     if getattr(args, "frames", None):
-        return check_frames(Path(args.frames))
-    if not args.scene:
-        from ..errors import IpcsimError
+        if overrides and not args.scene:
+            raise IpcsimError("check --frames: --set changes a scene, and none was given: "
+                              f"ipcsim check SCENE --frames {args.frames} --set ...")
+        scene = None
+        if args.scene:
+            from ..scene import load_scene
 
+            scene = load_scene(Path(args.scene), overrides)
+        return check_frames(Path(args.frames), scene=scene)
+    if not args.scene:
         raise IpcsimError("check needs a scene file or --frames OUTPUT_FOLDER")
     # the simulation is set up too: it refuses what `run` would (intersecting or touching
     # shapes at the start, a vertex on or below a plane, an inverted tet, a missing solver)
-    from .run import overrides_of
-
-    scene, model, _ = load_and_build(args.scene, overrides=overrides_of(args.set),
+    scene, model, _ = load_and_build(args.scene, overrides=overrides,
                                      warn=lambda message: None)
     report(scene, model)
     return 0

@@ -32,7 +32,7 @@ def _print_iteration(it: dict) -> None:
 def reporter_for(args):
     """The CLI's reporter: lines and progress unless -q, iterations with -v."""
     from ..runner import Reporter
-    from .progress import RunProgress
+    from ..io.progress import RunProgress
 
     quiet = bool(args.quiet)
     return Reporter(

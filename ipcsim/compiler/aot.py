@@ -2,7 +2,7 @@
 
 Installing ipcsim compiles the serial variant of every kernel a scene calls from Python,
 for the argument types listed in ``signatures.txt``, into one extension module
-(``_compiled*.so``, built by ``aot_build.py``), with a manifest beside it
+(``_compiled*.so``, built by ``build.py``), with a manifest beside it
 (``_compiled.json``): the digest of the kernel sources it was built from, the CPU
 features it was built for, and which export is which kernel for which argument types;
 and the compiled code of each kernel's argument matcher (``_compiled.matchers``).

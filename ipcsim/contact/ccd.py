@@ -17,7 +17,6 @@ otherwise is the whole direction swept.
 from __future__ import annotations
 
 from msgspec import Struct
-import numpy as np
 
 from ..kernels.contact import ccd as _ccd
 from .candidates import find_candidates

@@ -12,6 +12,19 @@ Semantics
   construction); an edge folded over an adjacent triangle is therefore not reported.
 - A tet is *inverted* when its exact orientation det[b - a, c - a, d - a] is <= 0 (zero
   volume counts as inverted: it is degenerate).
+- A connected part of the mesh (its vertices connected through tets and triangles) lies
+  *inside* another when one of its vertices is strictly inside the other's closed
+  surface: a solid inside a solid intersects it, though no surface crosses (a cube
+  placed wholly in a bigger one, two nested parts of one mesh). Containers are the parts
+  whose triangles make a closed, consistently oriented surface: a tet mesh's boundary
+  (every part of it, a cavity's wall too, so a body in a hollow body's cavity is not
+  inside it) and closed ``.obj`` surfaces, whose solid side is the one their normals
+  point away from (an inward-facing room holds no solid). Open surfaces, segments and
+  points contain nothing. Where no surface crosses another, a part is inside another
+  wholly or not at all, so one vertex of each part is tested: by the winding number of
+  the container's triangles about it (solid angles summed, the sign of each from the
+  exact ``orient3d``), which rounds safely since the vertex is off the surface (a
+  vertex on a surface is contact, found by the edge-triangle test).
 """
 
 from __future__ import annotations
@@ -177,3 +190,93 @@ def check_frame(
         first_inverted=inverted[:max_pairs],
         min_signed_volume=float(volumes.min()) if len(volumes) else float("inf"),
     )
+
+
+class Solids(Struct, frozen=True, eq=False):
+    """The connected parts of a mesh and which of them can contain others (built once
+    per mesh by :func:`solids_of`; positions change, connectivity does not)."""
+
+    labels: np.ndarray  # (n,) the part of each vertex, -1 for a vertex in no cell
+    representatives: np.ndarray  # (k,) one vertex of each part (its lowest)
+    triangles: np.ndarray  # (t, 3) every triangle given
+    triangle_part: np.ndarray  # (t,) the part of each triangle
+    closed: np.ndarray  # (k,) bool: its triangles make a closed, oriented surface
+
+
+def solids_of(n: int, tets, triangles) -> Solids:
+    """The parts of a mesh of ``n`` vertices: connected through ``tets`` and
+    ``triangles`` (a tet mesh's boundary triangles with outward normals, and surface
+    triangles)."""
+    # writeable copies of a model's frozen arrays: the types compiled ahead of time
+    tets = np.require(_connectivity(tets, 4, n, "tets"), requirements="W")
+    triangles = np.require(_connectivity(triangles, 3, n, "triangles"), requirements="W")
+    labels = _k.component_labels(n, tets, triangles)
+    k = int(labels.max()) + 1 if n else 0
+    used = np.flatnonzero(labels >= 0)
+    representatives = np.full(k, -1, np.int64)
+    representatives[labels[used][::-1]] = used[::-1]  # the lowest vertex of each part
+    part = labels[triangles[:, 0]] if len(triangles) else np.zeros(0, np.int64)
+    return Solids(labels, representatives, triangles, part, _closed_parts(n, k, triangles,
+                                                                            part))
+
+
+def _closed_parts(n: int, k: int, triangles: np.ndarray, part: np.ndarray) -> np.ndarray:
+    """Which of ``k`` parts have triangles that make a closed, consistently oriented
+    surface: every edge of them is crossed as often from i to j as from j to i (so the
+    winding number about a point off the surface is a whole number)."""
+    closed = np.zeros(k, dtype=bool)
+    if not len(triangles):
+        return closed
+    closed[part] = True
+    directed = triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    lo, hi = directed.min(axis=1), directed.max(axis=1)
+    keys, inverse = np.unique(lo * np.int64(n) + hi, return_inverse=True)
+    balance = np.bincount(inverse, weights=np.where(directed[:, 0] < directed[:, 1], 1, -1),
+                          minlength=len(keys))
+    closed[np.repeat(part, 3)[balance[inverse] != 0]] = False
+    return closed
+
+
+def find_containments(x, solids: Solids) -> np.ndarray:
+    """Every (vertex of a part, vertex of a closed part it lies inside), as a (m, 2)
+    int64 array of the parts' representative vertices (module docstring). Meaningful
+    where no surface crosses or touches another (``find_intersections`` finds none)."""
+    x = _positions(x)
+    if len(x) != len(solids.labels):
+        raise ValueError(f"positions of {len(x)} vertices for a mesh of {len(solids.labels)}")
+    if not solids.closed.any() or len(solids.representatives) < 2:
+        return np.zeros((0, 2), np.int64)
+    parts = _k.containments(x, solids.representatives, solids.triangles,
+                            solids.triangle_part, solids.closed)
+    return solids.representatives[parts]
+
+
+def moving_parts(solids: Solids, kinematic) -> np.ndarray:
+    """(k,) bool: the parts with a vertex that is not kinematic (a part of kinematic
+    vertices only is an obstacle: two of them are never judged, as two obstacles' crossing
+    edges are not)."""
+    kinematic = np.asarray(kinematic, dtype=bool)
+    moving = np.zeros(len(solids.representatives), dtype=bool)
+    moving[solids.labels[(solids.labels >= 0) & ~kinematic]] = True
+    return moving
+
+
+def start_containment(model, mesh, x) -> tuple[int, int] | None:
+    """The first (vertex, vertex of the part it lies inside) at the start that IPC must
+    refuse, or None: two parts of one shape always (its tets overlap), parts of two
+    shapes where they can collide (``mesh``, the collision mesh, or None without mesh
+    contact: its body ids say which pairs count), never two obstacles."""
+    solids = solids_of(model.n_vertices, model.tets, model.surface_triangles)
+    pairs = find_containments(x, solids)
+    if not len(pairs):
+        return None
+    moving = moving_parts(solids, model.always_kinematic)[solids.labels[pairs]].any(axis=1)
+    shape = np.asarray(model.vertex_shape)[pairs]
+    same_shape = shape[:, 0] == shape[:, 1]
+    if mesh is None:
+        collide = np.zeros(len(pairs), dtype=bool)
+    else:
+        body = mesh.body[pairs]
+        collide = np.full(len(pairs), bool(mesh.self_collision)) | (body[:, 0] != body[:, 1])
+    judged = np.flatnonzero(moving & (same_shape | collide))
+    return None if not len(judged) else (int(pairs[judged[0], 0]), int(pairs[judged[0], 1]))

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import re
 from collections.abc import Callable
 from functools import partial
@@ -35,7 +36,7 @@ from pathlib import Path
 from msgspec import Struct, field
 import numpy as np
 
-from ..errors import IpcsimError
+from ..errors import IpcsimError, excerpt
 from ..atomic import atomic_path, atomic_write_text
 from .render import RenderError, load_run_frames
 from .vtk import FrameError, read_frame
@@ -126,6 +127,24 @@ def surface_vertices(mesh) -> np.ndarray:
     if not tris:
         return np.zeros(0, dtype=np.int64)
     return np.unique(np.concatenate([t.ravel() for t in tris]))
+
+
+def scene_size(points, where: str = "") -> float:
+    """The bounding-box diagonal of the finite ``points`` (metres), the scale of every
+    relative difference: 1 (absolute units) for a single point or none. Vertices with a
+    NaN or infinite coordinate are left out, so that they make no tolerance NaN or
+    infinite (and are themselves compared as infinitely far). A diagonal that overflows
+    is a CompareError."""
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    finite = points[np.isfinite(points).all(axis=1)]
+    if not len(finite):
+        return 1.0
+    with np.errstate(over="ignore", invalid="ignore"):
+        size = float(np.linalg.norm(finite.max(axis=0) - finite.min(axis=0)))
+    if not math.isfinite(size):
+        raise CompareError(f"{where}: the scene's size (its bounding-box diagonal) is beyond "
+                           "the largest float: no relative tolerance can be taken")
+    return size or 1.0
 
 
 def _run_frames(folder: Path, which: str):
@@ -247,8 +266,9 @@ def _compared_steps(run_a, ref: Reference) -> list[int]:
 def compare_runs(a, b, rtol: float = 1e-6, atol: float = 0.0) -> CompareResult:
     """Compare output folder ``a`` with ``b``: a run folder, a golden reference file,
     original ``<n>.obj`` files, or a :class:`Reference` already in memory."""
-    if not (rtol >= 0 and atol >= 0):
-        raise CompareError(f"tolerances must be non-negative (rtol {rtol}, atol {atol})")
+    if not (0 <= rtol < math.inf and 0 <= atol < math.inf):
+        raise CompareError(f"tolerances must be finite and non-negative (rtol {rtol}, "
+                           f"atol {atol})")
     a = Path(a)
     ref = b if isinstance(b, Reference) else read_reference(b)
     run_a = _run_frames(a, "A")
@@ -258,9 +278,10 @@ def compare_runs(a, b, rtol: float = 1e-6, atol: float = 0.0) -> CompareResult:
 
     first = _read_vtu(run_a.paths[0])
     n = len(first.points)
-    lo, hi = first.points.min(axis=0), first.points.max(axis=0)
-    res.scale = float(np.linalg.norm(hi - lo)) or 1.0  # a single point: absolute units
+    res.scale = scene_size(first.points, f"A: {run_a.paths[0]}")
     res.tolerance = atol + rtol * res.scale
+    if not math.isfinite(res.tolerance):
+        raise CompareError(f"the tolerance {atol} + {rtol} x {res.scale:.3g} m is not finite")
     index = ref.index
     if ref.kind == "original":
         index = surface_vertices(first)
@@ -333,6 +354,9 @@ def golden_from_run(folder, frames: int = 4, vertices: int = 20, about=None) -> 
     the run (first and last included), the positions there of ``vertices`` vertices spread
     evenly over the numbering (so every body of a multi-body scene has some), and every
     step's Newton iterations and contact counts. ``about`` is kept as free information."""
+    if vertices < 1 or frames < 1:
+        raise ValueError(f"a golden reference needs at least one vertex and one frame "
+                         f"(vertices={vertices}, frames={frames})")
     folder = Path(folder)
     run = _run_frames(folder, "run")
     first = _read_vtu(run.paths[0])
@@ -375,10 +399,21 @@ def read_golden(path) -> Reference:
         frames = {int(f["step"]): np.asarray(f["positions"], dtype=np.float64).reshape(-1, 3)
                   for f in data["frames"]}
         log = {c: np.asarray(data["log"][c]) for c in ("step", *COUNT_COLUMNS)}
-        index = np.asarray(data["vertices"], dtype=np.int64)
+        vertices = data["vertices"]
+        if not isinstance(vertices, list) or not all(
+                isinstance(v, int) and not isinstance(v, bool) for v in vertices):
+            raise ValueError("\"vertices\" must list vertex numbers (whole numbers)")
+        index = np.asarray(vertices, dtype=np.int64)
         mesh = dict(data["mesh"])
     except (KeyError, TypeError, ValueError) as exc:
         raise CompareError(f"{path}: damaged golden reference ({exc!r})") from exc
+    if index.ndim != 1 or len(index) == 0:
+        raise CompareError(f"{path}: the golden reference samples no vertex (\"vertices\" "
+                           "is empty): it would compare nothing")
+    n = mesh.get("vertices")
+    if isinstance(n, bool) or not isinstance(n, int) or index.min() < 0 or index.max() >= n:
+        raise CompareError(f"{path}: damaged golden reference (its sampled vertices are not "
+                           f"among the mesh's {excerpt(n)} vertices)")
     if len(frames) == 0 or any(len(x) != len(index) for x in frames.values()):
         raise CompareError(f"{path}: damaged golden reference (every frame needs one "
                            "position per sampled vertex)")

@@ -355,9 +355,11 @@ def read_series(pvd_path: str | os.PathLike) -> list[tuple[float, Path]]:
     readable series is a :class:`FrameError`."""
     from xml.etree import ElementTree  # reading runs back only: not on a run's start
 
+    from ..files import read_regular_file
+
     pvd_path = Path(pvd_path)
     try:
-        root = ElementTree.parse(pvd_path).getroot()
+        root = ElementTree.fromstring(read_regular_file(pvd_path))
         series = []
         for ds in root.iter("DataSet"):
             name = ds.get("file")

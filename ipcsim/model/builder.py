@@ -22,7 +22,7 @@ import msgspec
 from msgspec import Struct, field
 import numpy as np
 
-from ..errors import MeshError, SceneError
+from ..errors import ArgumentError, MeshError, SceneError
 from ..scene.spec import SUPPORTED_SCRIPTS, SceneSpec, ShapeSpec
 from . import mesh_io
 from .kinematics import rotation_axis_angle, rotation_xyz
@@ -191,6 +191,9 @@ def _load_obstacle(scene: SceneSpec, k: int, ob) -> _Part:
 
 def build_model(scene: SceneSpec) -> Model:
     """Load every mesh of the scene and assemble the frozen Model (§5)."""
+    if not isinstance(scene, SceneSpec):
+        raise ArgumentError("build_model takes a SceneSpec (ipcsim.load_scene(path)), got "
+                            f"{type(scene).__name__}")
     try:
         return _build_model(scene)
     except MeshError as exc:

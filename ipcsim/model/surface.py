@@ -116,7 +116,7 @@ def enclosed_volume(points: np.ndarray, triangles: np.ndarray) -> float:
 
 def tet_signed_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
     """Signed volumes (m,) of tets: V = det[x1 - x0, x2 - x0, x3 - x0] / 6
-    (``kernels.linalg.tet_signed_volumes``, for any array-like input)."""
+    (``kernels.algebra.linalg.tet_signed_volumes``, for any array-like input)."""
     from ..kernels.algebra.linalg import tet_signed_volumes as kernel  # numba: imported on use
 
     p = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)

@@ -7,12 +7,12 @@ as ``path:line: what is wrong``; warnings are collected in ``SceneSpec.warnings`
 
 from __future__ import annotations
 
-import os
-import stat
+from collections.abc import Mapping
 from pathlib import Path
 
-from ..errors import OutputError, SceneError
+from ..errors import ArgumentError, OutputError, SceneError
 from ..atomic import atomic_write_text
+from ..files import NotRegularFileError, read_regular_file
 from .spec import (
     DirichletSpec,
     InitialVelocitySpec,
@@ -72,28 +72,26 @@ def scene_format(path) -> str:
                                  "(IPC script) or .toml")
 
 
-def read_scene_text(path) -> str:
+def read_scene_text(path, kind: str = "scene file") -> str:
     """The file's text (UTF-8, a BOM allowed); a SceneError when it cannot be read, is not
-    a regular file, is larger than :data:`MAX_SCENE_BYTES` or is not text."""
+    a regular file, is larger than :data:`MAX_SCENE_BYTES` or is not text. ``kind`` names
+    the file in messages (a study file is read by the same rules)."""
     try:
-        info = os.stat(path)
-        if stat.S_ISDIR(info.st_mode):
-            raise SceneError(path, None, "is a folder, not a scene file")
-        if not stat.S_ISREG(info.st_mode):
-            raise SceneError(path, None, "is not a regular file (a device, a pipe or a "
-                                         "socket), so it cannot be a scene file")
-        _check_size(path, info.st_size)
-        with open(path, "rb") as f:
-            data = f.read(MAX_SCENE_BYTES + 1)
+        data = read_regular_file(path, MAX_SCENE_BYTES + 1)
     except FileNotFoundError:
-        raise SceneError(path, None, "scene file not found") from None
+        raise SceneError(path, None, f"{kind} not found") from None
+    except IsADirectoryError:
+        raise SceneError(path, None, f"is a folder, not a {kind}") from None
+    except NotRegularFileError:
+        raise SceneError(path, None, "is not a regular file (a device, a pipe or a "
+                                     f"socket), so it cannot be a {kind}") from None
     except OSError as exc:
-        raise SceneError(path, None, f"cannot read scene file ({exc.strerror or exc})") from None
-    _check_size(path, len(data))
-    return scene_text(data, path)
+        raise SceneError(path, None, f"cannot read {kind} ({exc.strerror or exc})") from None
+    _check_size(path, len(data), kind)
+    return scene_text(data, path, kind)
 
 
-def scene_text(data: bytes, path) -> str:
+def scene_text(data: bytes, path, kind: str = "scene file") -> str:
     """The text of a scene file's bytes: UTF-8 (a BOM allowed) without NUL bytes, else a
     SceneError at the line of the first bad byte."""
     try:
@@ -105,22 +103,25 @@ def scene_text(data: bytes, path) -> str:
     nul = text.find("\0")
     if nul >= 0:
         raise SceneError(path, text.count("\n", 0, nul) + 1,
-                         "holds a NUL byte: a binary file, not a scene")
+                         f"holds a NUL byte: a binary file, not a {kind}")
     return text
 
 
-def _check_size(path, size: int) -> None:
+def _check_size(path, size: int, kind: str = "scene file") -> None:
     if size > MAX_SCENE_BYTES:
-        raise SceneError(path, None, f"is {size / 2**20:.3g} MiB; ipcsim reads scene files of "
-                                     f"at most {MAX_SCENE_BYTES // 2**20} MiB (a hand-written "
-                                     "scene is a few KB; `shapeMatrix` or a [[shapes]] matrix "
-                                     "makes many copies of a shape)")
+        why = ("a hand-written scene is a few KB; `shapeMatrix` or a [[shapes]] matrix makes "
+               "many copies of a shape" if kind == "scene file" else f"a {kind} is a few KB")
+        raise SceneError(path, None, f"is {size / 2**20:.3g} MiB; ipcsim reads {kind}s of "
+                                     f"at most {MAX_SCENE_BYTES // 2**20} MiB ({why})")
 
 
 def load_scene(path, overrides=None) -> SceneSpec:
     """Read a scene file (.txt/.ipc or .toml) into a validated ``SceneSpec``; with
     ``overrides`` (dotted TOML key -> value, :mod:`ipcsim.scene.overrides`) those values
     replace the file's, checked as the file's are."""
+    if overrides is not None and not isinstance(overrides, Mapping):
+        raise ArgumentError("overrides must be a mapping of dotted TOML keys to values "
+                            f"({{'time.dt': 0.01}}), got {type(overrides).__name__}")
     fmt = scene_format(path)
     text = read_scene_text(path)
     spec = parse_txt(text, path) if fmt == "txt" else parse_toml(text, path)

@@ -16,6 +16,7 @@ import json
 from pathlib import Path
 
 from ..errors import SceneError
+from ..files import open_regular
 from .spec import SceneSpec
 from .toml_writer import scene_to_dict
 
@@ -27,7 +28,7 @@ _CHUNK = 1 << 20
 def file_digest(path: Path) -> str:
     """SHA-256 of a file's bytes, read in chunks."""
     h = hashlib.sha256()
-    with open(path, "rb") as f:
+    with open_regular(path) as f:  # a FIFO or a device is refused, not read for ever
         while chunk := f.read(_CHUNK):
             h.update(chunk)
     return h.hexdigest()

@@ -117,8 +117,9 @@ def not_found_message(what: str, written: str, scene_path, exists=is_file) -> st
             kind = _kind_of(cand)
             if kind is not None and not exists(cand):
                 want = "a folder" if exists is is_dir else "a file"
-                found = f"is {kind}" if kind != "not a regular file" else "is not a regular file"
-                return f"{what} '{excerpt(written, 80)}' {found}, not {want} ({cand})"
+                found = (f"is {kind}, not {want}" if kind != "not a regular file" else
+                         "is not a regular file (a device, a pipe or a socket)")
+                return f"{what} '{excerpt(written, 80)}' {found} ({cand})"
     if Path(written).is_absolute():
         return f"{what} '{excerpt(written, 80)}' does not exist"
     where = "the scene's folder, its parent folders" if scene_path is not None else ""

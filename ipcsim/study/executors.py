@@ -13,13 +13,17 @@ from __future__ import annotations
 import logging
 import math
 import os
+import signal
 import sys
+import threading
 import time
+from contextlib import contextmanager
 
 from ..errors import IpcsimError, excerpt, one_line
 from .runs import WORKER_ENV, RunTask, describe, execute
 
-__all__ = ["SerialExecutor", "DaskExecutor", "StudyProgress", "INSTALL_HINT", "default_workers"]
+__all__ = ["SerialExecutor", "DaskExecutor", "StudyProgress", "INSTALL_HINT", "default_workers",
+           "interrupted_by_signals"]
 
 INSTALL_HINT = ('ipcsim sweep runs on Dask, which is not installed: pip install '
                 '"ipcsim[cluster]" (or run the study in this process with --serial)')
@@ -32,6 +36,30 @@ def default_workers() -> int:
     if hasattr(os, "sched_getaffinity"):
         return max(1, len(os.sched_getaffinity(0)))
     return max(1, os.cpu_count() or 1)
+
+
+@contextmanager
+def interrupted_by_signals():
+    """While the study runs, Ctrl-C (SIGINT) and SIGTERM (a batch scheduler's,
+    ``timeout``'s) stop it alike: a KeyboardInterrupt in this thread, so that the executor
+    shuts its cluster down (no worker or semaphore is left behind) and the study ends with
+    status 130, resumable; also where the process was started with SIGINT ignored (in
+    the background of a script), as ``ipcsim run`` stops there. A run in this process
+    (``--serial``) turns them into "stop after this step" itself, as ``ipcsim run``
+    does."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    previous = {s: signal.signal(s, interrupt) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
 
 
 def _failed(task: RunTask, error: str) -> dict:
@@ -60,11 +88,64 @@ class SerialExecutor:
             yield task, execute(task)
 
 
+def check_scheduler_address(address: str) -> str:
+    """``--scheduler``'s address, checked without connecting: a scheme Dask knows, a host
+    and a port (1 to 65535). A malformed one is an IpcsimError (exit status 2)."""
+    from distributed.comm import registry
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:
+        scheme, location = parse_address(address)
+        if scheme == "inproc":
+            raise ValueError("an in-process address, which no other process can reach")
+        registry.get_backend(scheme)
+        _, port = parse_host_port(location)
+        if not 0 < port < 65536:
+            raise ValueError(f"port {port} is not from 1 to 65535")
+    except (ValueError, TypeError, ImportError) as exc:
+        raise IpcsimError(f"--scheduler {excerpt(address, 80)}: not a Dask scheduler "
+                          f"address ({excerpt(one_line(str(exc)), 160)}); give "
+                          "tcp://host:port") from None
+    return address
+
+
+def _connect_timeout() -> float:
+    """Seconds to reach a scheduler: Dask's distributed.comm.timeouts.connect."""
+    import dask
+    from dask.utils import parse_timedelta
+
+    return float(parse_timedelta(dask.config.get("distributed.comm.timeouts.connect"),
+                                 default="seconds"))
+
+
+def _probe(address: str, timeout: float) -> None:
+    """Connect to ``address`` and exchange Dask's handshake, all within ``timeout``
+    seconds: a listener that is no Dask scheduler (an HTTP server) never answers the
+    handshake, which Dask's own connect would wait for without end. Raises
+    TimeoutError or OSError."""
+    import asyncio
+
+    from distributed.comm import connect
+
+    async def handshake():
+        comm = await asyncio.wait_for(connect(address, timeout=timeout), timeout)
+        await comm.close()
+
+    asyncio.run(handshake())
+
+
 class DaskExecutor:
     """The runs as Dask tasks: ``workers`` single-threaded processes of a new
-    ``LocalCluster`` (default one per core), or the cluster at ``scheduler``."""
+    ``LocalCluster`` (default one per core), or the cluster at ``scheduler``. Dask is
+    imported, and the address checked, when the executor is made."""
 
     def __init__(self, workers: int | None = None, scheduler: str | None = None):
+        try:
+            import dask.distributed  # noqa: F401
+        except ImportError:
+            raise IpcsimError(INSTALL_HINT) from None
+        if scheduler is not None:
+            check_scheduler_address(scheduler)
         self.workers, self.scheduler = workers, scheduler
         self.client = self.cluster = None
 
@@ -75,14 +156,14 @@ class DaskExecutor:
         return f"a local Dask cluster of {self.workers or default_workers()} worker processes"
 
     def __enter__(self):
-        try:
-            import dask
-            from dask.distributed import Client, LocalCluster
-        except ImportError:
-            raise IpcsimError(INSTALL_HINT) from None
+        import dask
+        from dask.distributed import Client, LocalCluster
+
         try:
             if self.scheduler:
-                self.client = Client(self.scheduler, timeout="20s")
+                timeout = _connect_timeout()
+                _probe(self.scheduler, timeout)
+                self.client = Client(self.scheduler, timeout=timeout)
             else:
                 # Two of Dask's defaults slow a simulation down (docs/benchmarks.md): the
                 # workers' statistical profiler, which samples the running task's stack
@@ -100,11 +181,17 @@ class DaskExecutor:
                         processes=True, env=dict(WORKER_ENV), dashboard_address=None,
                         silence_logs=logging.CRITICAL)
                 self.client = Client(self.cluster)
-        except (OSError, TimeoutError) as exc:
+        except Exception as exc:  # noqa: BLE001  (OSError, a timeout, TLS without a context...)
             self.__exit__()
             where = self.scheduler or "a local cluster"
-            raise IpcsimError(f"cannot start or reach {where}: "
-                              f"{excerpt(one_line(str(exc)), 200)}") from None
+            why = one_line(str(exc)) or type(exc).__name__
+            if isinstance(exc, TimeoutError) and self.scheduler:
+                why = (f"no Dask scheduler answered within {_connect_timeout():g} s (Dask's "
+                       "distributed.comm.timeouts.connect); is it one?")
+            raise IpcsimError(f"cannot start or reach {where}: {excerpt(why, 200)}") from None
+        except BaseException:  # Ctrl-C or SIGTERM while the cluster starts: shut it down
+            self.__exit__()
+            raise
         return self
 
     def __exit__(self, *exc):

@@ -22,14 +22,15 @@ from pathlib import Path
 import msgspec
 from msgspec import Struct
 
-from ..errors import IpcsimError, RunInterrupted, SceneError, excerpt, one_line
+from ..errors import IpcsimError, OutputError, RunInterrupted, SceneError, excerpt, one_line
+from ..io.output_folder import RUN_DIGEST_CHARS as DIGEST_CHARS
+from ..io.output_folder import STUDY_RUNS as RUNS_DIR
 from .spec import Record, StudySpec
 
-__all__ = ["RunTask", "plan", "execute", "cached_row", "ROW_FILE", "RUNS_DIR"]
+__all__ = ["RunTask", "plan", "execute", "cached_row", "refuse_replacing", "ROW_FILE",
+           "RUNS_DIR"]
 
 ROW_FILE = "study_row.json"
-RUNS_DIR = "runs"
-DIGEST_CHARS = 16
 # a study's runs each take one thread: as many runs as cores, not threads fighting
 WORKER_ENV = {"IPCSIM_THREADS": "1", "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
               "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
@@ -83,9 +84,11 @@ def plan(study: StudySpec, out: Path) -> tuple[list[RunTask], RunTask | None]:
 
 def cached_row(task: RunTask) -> dict | None:
     """The row a finished run left, if it still stands for ``task``."""
+    from ..files import read_regular_text
+
     try:
-        saved = json.loads((Path(task.folder) / ROW_FILE).read_text())
-    except (OSError, ValueError):
+        saved = json.loads(read_regular_text(Path(task.folder) / ROW_FILE))
+    except (OSError, ValueError):  # a FIFO or a folder in its place too: no row
         return None
     if not isinstance(saved, dict) or saved.get("key") != json.loads(
             json.dumps(task.cache_key)) or saved.get("row", {}).get("status") != "ok":
@@ -93,27 +96,62 @@ def cached_row(task: RunTask) -> dict | None:
     return saved["row"]
 
 
-def _mode(task: RunTask) -> str:
-    """How to go on in the run's folder: "done", "resume", "new" or "overwrite"."""
+def folder_state(task: RunTask) -> str:
+    """What the task's folder holds: "new" (nothing), "done" (this run, finished),
+    "resume" (this run, cut short), "damaged" (no readable checkpoint: the study's own
+    run, which cannot go on), "beyond" (this run gone beyond ``task.steps``) or "other"
+    (the checkpoint of other inputs). The last two are never replaced silently."""
     from ..io.checkpoint import read_checkpoint
+    from ..io.output_folder import holds_anything
 
     folder = Path(task.folder)
-    if not folder.is_dir() or not any(folder.iterdir()):
+    if not holds_anything(folder):
         return "new"
     try:
         checkpoint = read_checkpoint(folder)
     except IpcsimError:
-        return "overwrite"
-    if checkpoint["inputs_sha256"] != task.digest or checkpoint["step"] > task.steps:
-        return "overwrite"
+        return "damaged"
+    if checkpoint["inputs_sha256"] != task.digest:
+        return "other"
+    if checkpoint["step"] > task.steps:
+        return "beyond"
     if checkpoint["step"] == task.steps and _run_info(folder).get("status") == "ok":
         return "done"
     return "resume"
 
 
+def _conflict(task: RunTask, state: str) -> str:
+    """Why the task's folder cannot be used (``state`` "beyond" or "other")."""
+    if state == "beyond":
+        return (f"{describe(task)}: its folder {task.folder} holds this run gone further "
+                f"than this study's {task.steps} steps")
+    return f"{describe(task)}: its folder {task.folder} holds the checkpoint of another run"
+
+
+def refuse_replacing(tasks) -> None:
+    """An OutputError (exit status 2) when a task's folder holds a run that the study
+    would have to replace (:func:`folder_state` "beyond" or "other"): a finished run is
+    never lost without ``--overwrite``."""
+    for task in tasks:
+        state = folder_state(task)
+        if state in ("beyond", "other"):
+            raise OutputError(f"{_conflict(task, state)}; pass --overwrite to run the study "
+                              "afresh, or -o another folder")
+
+
+def _mode(task: RunTask) -> str:
+    """How to go on in the run's folder: "done", "resume", "new" or "overwrite"."""
+    state = folder_state(task)
+    if state in ("beyond", "other"):  # a folder changed since the study was planned
+        raise OutputError(f"{_conflict(task, state)}; left as it is")
+    return {"damaged": "overwrite"}.get(state, state)
+
+
 def _run_info(folder: Path) -> dict:
+    from ..files import read_regular_text
+
     try:
-        info = json.loads((folder / "run.json").read_text())
+        info = json.loads(read_regular_text(folder / "run.json"))
         return info if isinstance(info, dict) else {}
     except (OSError, ValueError):
         return {}
@@ -250,7 +288,7 @@ def _final_state(folder: Path, dt: float) -> dict:
 
 def _frames(folder: Path) -> dict:
     """``ipcsim check --frames``: every frame by the exact checker."""
-    from ..commands.check import check_frames
+    from ..contact.frame_check import check_frames
 
     counts: dict = {}
     clean = check_frames(folder, io.StringIO(), counts) == 0

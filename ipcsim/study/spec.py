@@ -51,6 +51,16 @@ from ..scene.txt_reader import suggest
 __all__ = ["StudySpec", "Axis", "Record", "Chart", "load_study", "make_study", "SUMMARIES"]
 
 SUMMARIES = ("min", "max", "mean", "final")
+# study.csv's columns besides the parameters and the recorded steps.csv summaries
+# (docs/user-guide.md, "Studies"): every row's, then those of final_state, check_frames
+# and a reference run
+ROW_COLUMNS = ("run", "status", "error", "steps_done", "steps_planned", "wall_s",
+               "newton_iterations", "steps_not_converged", "folder", "action",
+               "inputs_sha256", "elapsed_s", "cpu_s")
+FINAL_STATE_COLUMNS = ("final_time", "final_centre_x", "final_centre_y", "final_centre_z",
+                       "final_max_speed", "final_positions_sha256")
+FRAME_COLUMNS = ("frames_clean", "intersections", "inverted_tets", "below_plane")
+REFERENCE_COLUMNS = ("error_rms", "error_max", "error_frames")
 MAX_RUNS = 100_000
 _TOP = ("study", "vary", "record", "reference", "chart")
 
@@ -93,6 +103,16 @@ class StudySpec(Struct, frozen=True):
     def keys(self) -> tuple[str, ...]:
         """Every varied key, axis by axis."""
         return tuple(k for a in self.axes for k in a.keys)
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """Every column study.csv can have (the chart's y must be one of them)."""
+        rec = self.record
+        return (*ROW_COLUMNS, *self.keys,
+                *(f"{c}_{s}" for c in rec.columns for s in rec.summaries),
+                *(FINAL_STATE_COLUMNS if rec.final_state else ()),
+                *(FRAME_COLUMNS if rec.check_frames else ()),
+                *(REFERENCE_COLUMNS if self.reference is not None else ()))
 
     def points(self) -> list[dict]:
         """Every run's overrides of the varied keys: the product of the axes."""
@@ -161,17 +181,33 @@ class _Reader:
         if num == 1:
             return (start,)
         if spacing == "log":
-            return tuple(start * (stop / start) ** (i / (num - 1)) for i in range(num))
-        return tuple(start + (stop - start) * i / (num - 1) for i in range(num))
+            if math.isfinite(stop / start):
+                return tuple(start * (stop / start) ** (i / (num - 1)) for i in range(num))
+            a, b = math.log(start), math.log(stop)  # the ratio overflows: in logarithms
+            return self._finite(tuple(math.exp(a + (b - a) * i / (num - 1))
+                                      for i in range(num)), key)
+        if math.isfinite(stop - start):
+            return tuple(start + (stop - start) * i / (num - 1) for i in range(num))
+        # the span overflows (+-1e308): weighted, every value finite
+        return self._finite(tuple(start * (1 - i / (num - 1)) + stop * (i / (num - 1))
+                                  for i in range(num)), key)
 
     def _stepped(self, start, stop, step, key: str) -> tuple:
         if step == 0 or (stop - start) / step < 0:
             self.fail(f"{key}.step", f"{key}.step must lead from start to stop")
-        n = math.floor((stop - start) / step * (1 + 1e-12)) + 1
-        if n > MAX_RUNS:
-            self.fail(key, f"{key} makes {n} values; at most {MAX_RUNS}")
+        count = (stop - start) / step * (1 + 1e-12)  # inf where the span or it overflows
+        if not count < MAX_RUNS:
+            self.fail(key, f"{key} makes more than {MAX_RUNS} values")
+        n = math.floor(count) + 1
         ints = all(isinstance(x, int) for x in (start, stop, step))
-        return tuple((start + i * step) if ints else float(start + i * step) for i in range(n))
+        return self._finite(tuple((start + i * step) if ints else float(start + i * step)
+                                  for i in range(n)), key)
+
+    def _finite(self, values: tuple, key: str) -> tuple:
+        bad = next((v for v in values if not math.isfinite(v)), None)
+        if bad is not None:
+            self.fail(key, f"{key} makes the value {bad!r}: a range's values must be finite")
+        return values
 
 
 def _flat(table: dict, is_leaf=lambda v: not isinstance(v, dict), prefix="") -> dict:
@@ -257,14 +293,12 @@ def _overrides(r: _Reader, data, key: str) -> dict:
 
 def load_study(path) -> StudySpec:
     """Read and check a study file (the scene keys are checked when runs are planned)."""
+    from ..scene import read_scene_text
+
     path = Path(path).absolute()
+    text = read_scene_text(path, kind="study file")  # a scene file's rules: one reader
     try:
-        text = path.read_text(encoding="utf-8")
         doc = tomllib.loads(text)
-    except FileNotFoundError:
-        raise SceneError(path, None, "study file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(path, None, f"cannot read the study file ({exc})") from None
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(path, None, f"invalid TOML: {exc}") from None
     r = _Reader(path, text)
@@ -274,7 +308,10 @@ def load_study(path) -> StudySpec:
         r.fail("study", "[study] needs scene = \"path of the base scene\"")
     scene = Path(os.path.normpath(path.parent / study["scene"]))
     if not scene.is_file():
-        r.fail("study.scene", f"study.scene: '{excerpt(study['scene'], 80)}' not found "
+        found = "not found" if not scene.exists() else (
+            "is a folder, not a scene file" if scene.is_dir() else
+            "is not a regular file (a device, a pipe or a socket), so it cannot be a scene file")
+        r.fail("study.scene", f"study.scene: '{excerpt(study['scene'], 80)}' {found} "
                               f"(relative to {path.parent})")
     steps = study.get("steps")
     if steps is not None and (isinstance(steps, bool) or not isinstance(steps, int)
@@ -289,10 +326,22 @@ def load_study(path) -> StudySpec:
     if "reference" in doc:
         ref = r.table(doc["reference"], "reference", ("set",))
         reference = _overrides(r, ref.get("set", {}), "reference.set")
-    return StudySpec(path, scene, axes, _record(r, doc.get("record", {})),
+    spec = StudySpec(path, scene, axes, _record(r, doc.get("record", {})),
                      _chart(r, doc.get("chart", {}), keys),
                      Path(os.path.normpath(path.parent / output)) if output else None, steps,
                      _overrides(r, study.get("set", {}), "study.set"), reference)
+    if spec.chart.y not in spec.columns:
+        r.fail("chart.y", chart_y_problem(spec))
+    return spec
+
+
+def chart_y_problem(spec: StudySpec) -> str:
+    """Why the chart's y names no column of the study's study.csv."""
+    y = spec.chart.y
+    return (f"chart.y: '{excerpt(y)}' is no column of this study's study.csv"
+            f"{suggest(y, spec.columns)} (its columns: run, status, the varied keys, "
+            "steps_done, wall_s, newton_iterations, ..., and what [record] and "
+            "[reference] add)")
 
 
 def make_study(scene, vary, *, steps: int | None = None, fixed: dict | None = None,
@@ -310,6 +359,9 @@ def make_study(scene, vary, *, steps: int | None = None, fixed: dict | None = No
         axes.append(Axis(tuple(t), tuple(zip(*columns))))
     keys = [k for a in axes for k in a.keys]
     scene = Path(os.path.abspath(scene))
-    return StudySpec(scene.with_name(f"{scene.stem}-study.toml"), scene, tuple(axes),
+    spec = StudySpec(scene.with_name(f"{scene.stem}-study.toml"), scene, tuple(axes),
                      record or Record(), chart or Chart(keys[0]), None, steps,
                      dict(fixed or {}), None if reference is None else dict(reference))
+    if spec.chart.y not in spec.columns:
+        raise ValueError(chart_y_problem(spec))
+    return spec

@@ -8,12 +8,12 @@ import io
 import math
 from pathlib import Path
 
+from ..io.output_folder import STUDY_CHART as CHART_NAME
+from ..io.output_folder import STUDY_COLUMNS as _FIRST
+from ..io.output_folder import STUDY_TABLE as TABLE_NAME
+
 __all__ = ["write_table", "read_table", "reference_errors", "chart", "TABLE_NAME",
            "CHART_NAME"]
-
-TABLE_NAME = "study.csv"
-CHART_NAME = "study.png"
-_FIRST = ("run", "status", "error")
 _LAST = ("folder", "action", "inputs_sha256")
 
 
@@ -78,8 +78,12 @@ def reference_errors(rows: list[dict], reference: dict) -> None:
     ref = _frames(reference["folder"])
     if not ref:
         return
-    first = read_frame(ref[min(ref)]).points
-    diagonal = float(np.linalg.norm(first.max(axis=0) - first.min(axis=0))) or 1.0
+    from ..io.compare import CompareError, scene_size
+
+    try:  # compare's scale: NaN coordinates never make every error NaN
+        diagonal = scene_size(read_frame(ref[min(ref)]).points)
+    except CompareError:
+        return
     cache: dict = {}
     for row in rows:
         if row.get("status") != "ok":

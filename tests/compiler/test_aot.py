@@ -294,7 +294,7 @@ def test_the_example_scenes_run_without_numba(scene, steps, tmp_path):
     if not os.path.exists(scene):
         pytest.skip("the original's examples are not beside the project")
     code = ("import sys, ipcsim\n"
-            "from ipcsim.commands.check import check_frames\n"
+            "from ipcsim.contact.frame_check import check_frames\n"
             f"ipcsim.run(ipcsim.load_scene({str(scene)!r}), {str(tmp_path)!r}, "
             f"steps={steps}, mode='overwrite')\n"
             f"check_frames(__import__('pathlib').Path({str(tmp_path)!r}), out=sys.stderr)\n"

@@ -112,3 +112,73 @@ def test_original_obj_output(runs, tmp_path, capsys):
     (same / "2.obj").unlink()
     assert main(["compare", str(a), str(same)]) == 2
     assert "no <n>.obj for steps 2" in capsys.readouterr().err
+
+
+def _moved(src, dst, shift=(0.0, 0.0, 0.0), frame0_vertex=None):
+    """A copy of run ``src`` with every frame moved by ``shift`` and, where given, a
+    vertex of frame 0 set to ``frame0_vertex``."""
+    shutil.copytree(src, dst)
+    for f in sorted((dst / "frames").glob("frame_*.vtu")):
+        mesh = meshio.read(f)
+        mesh.points = mesh.points + shift
+        if frame0_vertex is not None and f.name == "frame_000000.vtu":
+            mesh.points[0] = frame0_vertex
+        meshio.write(f, mesh)
+    return dst
+
+
+@pytest.mark.parametrize("bad", [float("nan"), float("inf")])
+def test_a_non_finite_first_frame_never_makes_runs_the_same(runs, tmp_path, capsys, bad):
+    """The tolerance's scale comes from A's first frame: a NaN or infinite coordinate
+    there must not make it NaN or infinite (and every difference pass)."""
+    a, _, _ = runs
+    broken = _moved(a, tmp_path / "broken", frame0_vertex=(bad, 0.0, 0.0))
+    far = _moved(a, tmp_path / "far", shift=(0.5, 0.0, 0.0))
+    assert main(["compare", str(broken), str(far)]) == 1
+    out = capsys.readouterr().out
+    assert "DIFFERENT" in out and "frame_000000.vtu" in out, out
+
+
+def test_a_golden_reference_that_samples_no_vertex_cannot_compare(runs, tmp_path, capsys):
+    import json
+
+    from ipcsim.io.compare import golden_from_run, write_golden
+
+    a, _, _ = runs
+    with pytest.raises(ValueError, match="at least one vertex"):
+        golden_from_run(a, vertices=0)
+    golden = golden_from_run(a)
+    golden["vertices"] = []
+    golden["frames"] = [{**f, "positions": []} for f in golden["frames"]]
+    path = write_golden(tmp_path / "empty.json", golden)
+    assert main(["compare", str(a), str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "empty.json" in err and "no vertex" in err, err
+    assert json.loads(path.read_text())["vertices"] == []
+
+
+def test_a_golden_reference_sampling_a_vertex_the_mesh_lacks_cannot_compare(runs, tmp_path,
+                                                                            capsys):
+    from ipcsim.io.compare import golden_from_run, write_golden
+
+    a, _, _ = runs
+    golden = golden_from_run(a)
+    golden["vertices"][-1] = golden["mesh"]["vertices"] + 5
+    path = write_golden(tmp_path / "far.json", golden)
+    assert main(["compare", str(a), str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "far.json" in err and "not among the mesh's" in err and len(err.splitlines()) == 1
+
+
+def test_a_golden_reference_whose_vertices_are_not_whole_numbers_cannot_compare(runs, tmp_path,
+                                                                                 capsys):
+    """[0.5, ...] was read as vertex 0 and compared (exit 1): a damaged reference."""
+    from ipcsim.io.compare import golden_from_run, write_golden
+
+    a, _, _ = runs
+    golden = golden_from_run(a)
+    golden["vertices"] = [v + 0.5 for v in golden["vertices"]]
+    path = write_golden(tmp_path / "halves.json", golden)
+    assert main(["compare", str(a), str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "halves.json" in err and "whole numbers" in err

@@ -12,8 +12,7 @@ import numpy as np
 import pytest
 
 import ipcsim
-from ipcsim.io.run_info import (RUN_KEYS, environment_info, now_iso, peak_memory_mb,
-                                 write_run_info)
+from ipcsim.io.run_info import (RUN_KEYS, environment_info, now_iso, write_run_info)
 
 
 def test_run_json_has_environment_and_caller_facts(tmp_path):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from examples import example_scripts, extra_scripts_with_meshes  # noqa: F401  (re-exported)
 
 MESHES = ("meshes/cube.msh", "meshes/tri.obj", "meshes/edge.seg", "meshes/cloud.pt",

@@ -464,14 +464,3 @@ def ramp_unresolved(u, p, verts, coeffs, basis, weight, body, eps, fraction):
         if change[b] > 0.0 and change[b] >= fraction * eps * capacity[b]:
             return True
     return False
-    limit = (fraction * eps) ** 2
-    for k in range(verts.shape[0]):
-        P = basis[k]
-        t0, t1 = _tangential(u, verts[k], coeffs[k], P)
-        if t0 * t0 + t1 * t1 >= eps * eps:
-            continue
-        d0, d1 = _tangential(p, verts[k], coeffs[k], P)
-        r = weight[k] / w_max
-        if (d0 * d0 + d1 * d1) * r * r >= limit:
-            return True
-    return False

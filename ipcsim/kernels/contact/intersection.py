@@ -528,3 +528,141 @@ def classify_edge_triangle_pairs(x, edges, triangles, pairs):
             point3(x, triangles[t, 2]),
         )
     return kinds
+
+
+# ---------------------------------------------------------------- containment
+
+
+@njit(cache=True)
+def _root(parent, i):
+    while parent[i] != i:
+        parent[i] = parent[parent[i]]  # path halving
+        i = parent[i]
+    return i
+
+
+@njit(cache=True)
+def _join_rows(parent, cells):
+    for r in range(cells.shape[0]):
+        a = _root(parent, cells[r, 0])
+        for j in range(1, cells.shape[1]):
+            b = _root(parent, cells[r, j])
+            if a != b:
+                parent[max(a, b)] = min(a, b)
+                a = min(a, b)
+
+
+@njit(cache=True)
+def component_labels(n, tets, triangles):
+    """labels[v] = the connected component of vertex v over the tets and triangles
+    (vertices sharing a cell are connected), numbered 0, 1, ... in the order of their
+    lowest vertex; -1 for a vertex in no cell. Union-find with path halving."""
+    parent = np.arange(n)
+    _join_rows(parent, tets)
+    _join_rows(parent, triangles)
+    used = np.zeros(n, np.bool_)
+    for cells in (tets, triangles):
+        for r in range(cells.shape[0]):
+            for j in range(cells.shape[1]):
+                used[cells[r, j]] = True
+    labels = np.full(n, -1, np.int64)
+    count = 0
+    for v in range(n):  # a root is its component's lowest vertex: it comes first
+        if used[v]:
+            r = _root(parent, v)
+            if r == v:
+                labels[v] = count
+                count += 1
+            else:
+                labels[v] = labels[r]
+    return labels
+
+
+@njit(cache=True)
+def solid_angle(p, a, b, c):
+    """The signed solid angle of triangle abc seen from p (Van Oosterom and Strackee),
+    positive where abc turns counter-clockwise seen from p: on a closed surface with
+    outward normals they sum to 4 pi at a point inside and to 0 outside. The sign of
+    the triple product is the exact orient3d's (zero: p in the triangle's plane, where
+    the angle is 0 unless p lies on the triangle, which is contact, not containment)."""
+    side = orient3d(p, a, b, c)
+    if side == 0:
+        return 0.0
+    ax, ay, az = a[0] - p[0], a[1] - p[1], a[2] - p[2]
+    bx, by, bz = b[0] - p[0], b[1] - p[1], b[2] - p[2]
+    cx, cy, cz = c[0] - p[0], c[1] - p[1], c[2] - p[2]
+    la = math.sqrt(ax * ax + ay * ay + az * az)
+    lb = math.sqrt(bx * bx + by * by + bz * bz)
+    lc = math.sqrt(cx * cx + cy * cy + cz * cz)
+    det = ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
+    den = (la * lb * lc + (ax * bx + ay * by + az * bz) * lc
+           + (ax * cx + ay * cy + az * cz) * lb + (bx * cx + by * cy + bz * cz) * la)
+    return 2.0 * math.atan2(side * abs(det), den)
+
+
+@njit(cache=True)
+def _component_triangles(triangle_component, k):
+    """(start, order): the triangles of component c are order[start[c]:start[c + 1]]."""
+    start = np.zeros(k + 1, np.int64)
+    for t in range(triangle_component.shape[0]):
+        start[triangle_component[t] + 1] += 1
+    for c in range(k):
+        start[c + 1] += start[c]
+    fill = start[:-1].copy()
+    order = np.empty(triangle_component.shape[0], np.int64)
+    for t in range(triangle_component.shape[0]):
+        c = triangle_component[t]
+        order[fill[c]] = t
+        fill[c] += 1
+    return start, order
+
+
+@njit(cache=True)
+def _component_boxes(x, triangles, start, order):
+    k = start.shape[0] - 1
+    boxes = np.empty((k, 6))
+    for c in range(k):
+        boxes[c, :3] = np.inf
+        boxes[c, 3:] = -np.inf
+        for s in range(start[c], start[c + 1]):
+            for j in range(3):
+                for a in range(3):
+                    value = x[triangles[order[s], j], a]
+                    boxes[c, a] = min(boxes[c, a], value)
+                    boxes[c, 3 + a] = max(boxes[c, 3 + a], value)
+    return boxes
+
+
+@njit(cache=True)
+def containments(x, representatives, triangles, triangle_component, container):
+    """Pairs (q, c) of components such that component q's representative vertex lies
+    inside the closed surface of component c (``container[c]``: its triangles form a
+    closed, consistently oriented surface), as an (m, 2) int64 array: the winding number
+    of c's triangles about the point (their solid angles over 4 pi) rounds to 1 or more.
+    Only containers whose bounding box holds the point are summed over."""
+    k = representatives.shape[0]
+    start, order = _component_triangles(triangle_component, k)
+    boxes = _component_boxes(x, triangles, start, order)
+    pairs = np.empty((max(k, 1), 2), np.int64)
+    m = 0
+    for q in range(k):
+        p = point3(x, representatives[q])
+        for c in range(k):
+            if c == q or not container[c] or not (
+                    boxes[c, 0] <= p[0] <= boxes[c, 3] and boxes[c, 1] <= p[1] <= boxes[c, 4]
+                    and boxes[c, 2] <= p[2] <= boxes[c, 5]):
+                continue
+            total = 0.0
+            for s in range(start[c], start[c + 1]):
+                t = order[s]
+                total += solid_angle(p, point3(x, triangles[t, 0]), point3(x, triangles[t, 1]),
+                                     point3(x, triangles[t, 2]))
+            if total > 2.0 * math.pi:  # winding number above 1/2
+                if m == pairs.shape[0]:
+                    grown = np.empty((2 * m, 2), np.int64)
+                    grown[:m] = pairs
+                    pairs = grown
+                pairs[m, 0] = q
+                pairs[m, 1] = c
+                m += 1
+    return pairs[:m].copy()

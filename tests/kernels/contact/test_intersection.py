@@ -566,3 +566,93 @@ def test_check_frame_fields_and_non_finite_input():
         find_intersections(v, edges, tris, edge_body=np.zeros(len(edges)))
     with pytest.raises(ValueError):
         find_intersections(v, tris, tris)
+
+
+# ------------------------------------------------------------------ containment
+
+
+def _box(cells, size, origin):
+    from ipcsim.model.generate import box_tet_mesh
+
+    return box_tet_mesh(*cells, size=size, origin=origin)
+
+
+def _scene(*boxes):
+    """Points, tets and outward boundary triangles of several tet boxes."""
+    from ipcsim.model.surface import boundary_triangles
+
+    points, tets, offset = [], [], 0
+    for p, t in boxes:
+        points.append(p)
+        tets.append(t + offset)
+        offset += len(p)
+    tets = np.concatenate(tets)
+    return np.concatenate(points), tets, boundary_triangles(tets)
+
+
+def _containments(points, tets, triangles):
+    from ipcsim.contact.intersection import find_containments, solids_of
+
+    solids = solids_of(len(points), tets, triangles)
+    return {tuple(int(solids.labels[v]) for v in pair)
+            for pair in find_containments(points, solids)}
+
+
+BIG = _box((2, 2, 2), (1.0, 1.0, 1.0), (0.0, 0.0, 0.0))
+SMALL_INSIDE = _box((1, 1, 1), (0.2, 0.2, 0.2), (0.4, 0.4, 0.4))
+
+
+def test_a_cube_inside_a_cube_is_contained_and_apart_is_not():
+    assert _containments(*_scene(BIG, SMALL_INSIDE)) == {(1, 0)}
+    apart = (SMALL_INSIDE[0] + [2.0, 0.0, 0.0], SMALL_INSIDE[1])
+    assert _containments(*_scene(BIG, apart)) == set()
+
+
+def test_three_nested_cubes_each_inside_those_around_it():
+    tiny = _box((1, 1, 1), (0.05, 0.05, 0.05), (0.475, 0.475, 0.475))
+    assert _containments(*_scene(BIG, SMALL_INSIDE, tiny)) == {(1, 0), (2, 0), (2, 1)}
+
+
+def test_a_body_in_a_hollow_bodys_cavity_is_not_inside_it():
+    """A 3x3x3 block of cells without its middle cell: its boundary has an outer and a
+    cavity wall, both of the one part; a cube in the cavity is outside the solid."""
+    points, tets = _box((3, 3, 3), (0.9, 0.9, 0.9), (0.0, 0.0, 0.0))
+    middle = np.all((points[tets] > 0.3 - 1e-9) & (points[tets] < 0.6 + 1e-9), axis=(1, 2))
+    shell = (points, tets[~middle])
+    in_cavity = _box((1, 1, 1), (0.1, 0.1, 0.1), (0.4, 0.4, 0.4))
+    in_wall = _box((1, 1, 1), (0.05, 0.05, 0.05), (0.1, 0.1, 0.1))
+    assert _containments(*_scene(shell, in_cavity)) == set()
+    assert _containments(*_scene(shell, in_wall)) == {(1, 0)}
+
+
+def test_only_closed_outward_surfaces_contain():
+    points, tets, triangles = _scene(BIG, SMALL_INSIDE)
+    big = np.isin(triangles, np.arange(len(BIG[0]))).all(axis=1)
+    none = np.zeros((0, 4), np.int64)
+    surface = np.concatenate([triangles[big], triangles[~big]])
+    assert _containments(points, none, surface) == {(1, 0)}  # a closed .obj solid
+    room = np.concatenate([triangles[big][:, ::-1], triangles[~big]])  # faces inward
+    assert _containments(points, none, room) == set()
+    assert _containments(points, none, np.concatenate([triangles[big][1:],
+                                                        triangles[~big]])) == set()  # open
+
+
+@pytest.mark.parametrize("gap", [1e-3, 1e-9, 1e-14])
+def test_a_vertex_just_off_a_face_is_decided_by_its_side(gap):
+    """The winding number rounds the right way however close the vertex is, the sign of
+    each solid angle coming from the exact orient3d."""
+    for height, inside in ((gap, True), (1.0 + gap, False)):  # over the bottom, the top
+        # the small box's first vertex, its part's representative, is `gap` off the face
+        small = _box((1, 1, 1), (0.1, 0.1, 0.1), (0.3, height, 0.3))
+        assert _containments(*_scene(BIG, small)) == ({(1, 0)} if inside else set()), height
+
+
+def test_winding_numbers_match_a_box_test_on_random_points():
+    rng = np.random.default_rng(7)
+    points, tets, triangles = _scene(BIG)
+    from ipcsim.kernels.contact.intersection import solid_angle
+
+    for q in rng.uniform(-0.5, 1.5, size=(200, 3)):
+        total = sum(solid_angle(tuple(q), *(tuple(points[i]) for i in tri)) for tri in triangles)
+        inside = bool(np.all((q > 0.0) & (q < 1.0)))
+        assert total / (4 * np.pi) == pytest.approx(1.0 if inside else 0.0, abs=1e-9)

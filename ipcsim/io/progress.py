@@ -14,6 +14,7 @@ import time
 
 LINE_FRACTION = 0.05  # plain mode: a line per 5 % of the run ...
 LINE_SECONDS = 30.0  # ... or per 30 s of wall time
+MODES = ("bar", "lines", "off")
 
 
 def _clock(seconds: float) -> str:

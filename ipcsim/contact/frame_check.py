@@ -1,0 +1,187 @@
+"""A run's frames verified with exact predicates (``ipcsim check --frames OUT``).
+
+``check_frames`` reads ``frames/series.pvd`` and, for every frame, tests every surface
+edge against every surface triangle it shares no vertex with (exact segment–triangle
+predicate); where none crosses, whether a part of the mesh lies inside another's closed
+surface (``intersection.find_containments``); every tet's orientation; and the simulated
+vertices against the scene's planes (the run's scene.toml, or the scene given, which must
+be the run's). Pairs between two kinematic obstacles are not judged (IPC promises nothing
+there) and are mentioned in a note. It returns 0 when all frames are intersection- and
+inversion-free, 1 when some are not; a damaged frame or series is a typed error.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+
+def check_frames(folder: Path, out=None, totals: dict | None = None, scene=None) -> int:
+    """Exact intersection and inversion check of every frame of a run, against its
+    scene (``scene``, else its scene.toml: :func:`run_scene`). ``totals``, when given,
+    receives the counts summed over frames: ``intersections``, ``contained`` (parts
+    inside another), ``inverted_tets``, ``below_plane`` (and ``obstacle_contacts``, which
+    are not problems)."""
+    from ..errors import IpcsimError
+    from ..io.vtk import SERIES_NAME, FrameError, read_frame, read_series
+
+    out = out or sys.stdout
+    pvd = Path(folder) / "frames" / SERIES_NAME
+    if not pvd.is_file():
+        raise IpcsimError(f"{folder}: no frames to check ({pvd} not found)")
+    planes, self_collision = _scene_of_run(Path(folder), scene)
+    series = read_series(pvd)
+    if not series:
+        raise FrameError(f"{pvd}: lists no frames")
+    if not self_collision:
+        out.write("the run's scene has self collision off: bodies may pass through each other, "
+                  "so only inverted tets and plane sides are checked\n")
+    bad, checker = 0, None
+    counts = {"intersections": 0, "contained": 0, "inverted_tets": 0, "below_plane": 0,
+              "obstacle_contacts": 0}
+    for time, vtu in series:
+        mesh = read_frame(vtu)
+        if checker is None:  # connectivity is the same in every frame of a run
+            checker = _FrameChecker(mesh, planes, self_collision)
+        problems = checker.check(mesh, vtu, counts)
+        if problems:
+            bad += 1
+            out.write(f"{vtu.name} (t={time:g} s): {'; '.join(problems)}\n")
+    if totals is not None:
+        totals.update(counts)
+    if counts["obstacle_contacts"]:
+        out.write(f"note: kinematic obstacles touch or overlap each other "
+                  f"({counts['obstacle_contacts']} edge-triangle pairs over all frames); IPC "
+                  "neither prevents nor promises anything between two obstacles\n")
+    clean = "no intersection and no inverted tet" if self_collision else "no inverted tet"
+    out.write(f"checked {len(series)} frames: "
+              + (f"{clean}\n" if bad == 0 else f"{bad} frames with problems\n"))
+    return 0 if bad == 0 else 1
+
+
+class _FrameChecker:
+    """The fixed mesh of a run's frames (from the first one) and what is judged on it:
+    edge-triangle pairs of which at least one side is a simulated body (pairs between two
+    kinematic obstacles are counted apart), tet orientations, and simulated vertices
+    against the scene's planes."""
+
+    def __init__(self, mesh, planes, self_collision: bool):
+        import numpy as np
+
+        from .intersection import edges_of_triangles
+        from ..model.surface import boundary_triangles
+
+        self.n = len(mesh.points)
+        cells = {c.type: np.asarray(c.data, dtype=np.int64) for c in mesh.cells}
+        self.tets = cells.get("tetra", np.zeros((0, 4), np.int64)).reshape(-1, 4)
+        surface = np.concatenate([boundary_triangles(self.tets),
+                                  cells.get("triangle", np.zeros((0, 3), np.int64))])
+        self.triangles = surface if self_collision else surface[:0]
+        self.edges = edges_of_triangles(self.triangles)
+        body = np.asarray(mesh.point_data.get("body_id", np.zeros(self.n)), dtype=np.int64)
+        kinematic = np.asarray(mesh.point_data.get("kinematic", np.zeros(self.n))) != 0
+        body = body.reshape(self.n, -1)[:, 0]
+        kinematic = kinematic.reshape(self.n, -1)[:, 0]
+        # an obstacle: a body whose every vertex is prescribed
+        ids, inverse = np.unique(body, return_inverse=True)
+        moving = np.bincount(inverse, weights=~kinematic, minlength=len(ids)) > 0
+        self.obstacle_vertex = ~moving[inverse]
+        self.body = body
+        self.solids = self.moving = None
+        if self_collision:  # parts inside others, by the intersection check's own rules
+            from .intersection import moving_parts, solids_of
+
+            self.solids = solids_of(self.n, self.tets, surface)
+            self.moving = moving_parts(self.solids, self.obstacle_vertex)
+        self.planes = planes
+        simulated = np.zeros(self.n, dtype=bool)
+        simulated[self.tets.ravel()] = True
+        self.plane_vertices = np.flatnonzero(simulated & ~kinematic)
+
+    def check(self, mesh, vtu, counts: dict) -> list[str]:
+        """The problems of one frame (empty when it is clean); ``counts`` accumulates."""
+        import numpy as np
+
+        from .intersection import find_intersections, inverted_tets
+        from ..io.vtk import FrameError
+
+        x = np.asarray(mesh.points, dtype=np.float64)
+        if len(x) != self.n:
+            raise FrameError(f"{vtu}: {len(x)} vertices, the run's first frame has {self.n}")
+        bad = int((~np.isfinite(x).all(axis=1)).sum())
+        if bad:
+            return [f"{bad} vertices with non-finite coordinates"]
+        pairs = find_intersections(x, self.edges, self.triangles)
+        between_obstacles = (self.obstacle_vertex[self.edges[pairs[:, 0]]].all(axis=1)
+                             & self.obstacle_vertex[self.triangles[pairs[:, 1]]].all(axis=1))
+        counts["obstacle_contacts"] += int(between_obstacles.sum())
+        n_pairs = int((~between_obstacles).sum())
+        inverted = len(inverted_tets(x, self.tets))
+        counts["intersections"] += n_pairs
+        counts["inverted_tets"] += inverted
+        problems = []
+        if n_pairs or inverted:
+            problems.append(f"{n_pairs} intersecting edge-triangle pairs; {inverted} inverted "
+                            "tets")
+        if self.solids is not None and n_pairs == 0:  # else a part is partly inside
+            problems += self._contained(x, counts)
+        if self.planes is not None and len(self.plane_vertices):
+            # simulated vertices must stay strictly on the positive side of every plane
+            origins, normals = self.planes
+            p = x[self.plane_vertices]
+            below = int((p @ normals.T - np.einsum("pk,pk->p", origins, normals) <= 0.0)
+                        .any(axis=1).sum())
+            counts["below_plane"] += below
+            if below:
+                problems.append(f"{below} vertices on or below a plane")
+        return problems
+
+    def _contained(self, x, counts: dict) -> list[str]:
+        """Parts of the mesh that lie wholly inside another's closed surface (no surface
+        crosses: ``contact.intersection.find_containments``), unless both are obstacles."""
+        from .intersection import find_containments
+
+        pairs = find_containments(x, self.solids)
+        pairs = pairs[self.moving[self.solids.labels[pairs]].any(axis=1)] if len(pairs) \
+            else pairs
+        counts["contained"] += len(pairs)
+        if not len(pairs):
+            return []
+        inner, outer = (int(self.body[v]) for v in pairs[0])
+        return [f"{len(pairs)} parts inside another's closed surface (first: a part of body "
+                f"{inner} inside body {outer})"]
+
+
+def run_scene(folder: Path, scene=None):
+    """The scene a run's frames are checked against: ``scene`` (a SceneSpec the user
+    gave, which must be the run's: its scene.toml, where there is one, must say the
+    same) or the run's own scene.toml. Without either the planes cannot be checked, and
+    the check is refused rather than passed (exit status 2)."""
+    from ..errors import IpcsimError
+    from ..scene import load_scene
+
+    scene_file = Path(folder) / "scene.toml"
+    if scene is not None:
+        if scene_file.exists() and load_scene(scene_file) != scene:
+            raise IpcsimError(f"{scene.source} (with its --set values) is not the scene of "
+                              f"the run in {folder} (its scene.toml differs); leave it out "
+                              "to check the frames against the run's own scene")
+        return scene
+    if not scene_file.exists():
+        raise IpcsimError(f"{scene_file}: not found; the frames cannot be checked against "
+                          "the run's planes without the run's scene: give it, `ipcsim "
+                          f"check SCENE --frames {folder}`")
+    return load_scene(scene_file)  # refuses a folder or a special file in its place
+
+
+def _scene_of_run(folder: Path, scene=None):
+    """((origins, normals) of the run's planes or None, whether self collision is on),
+    from :func:`run_scene`."""
+    import numpy as np
+
+    scene = run_scene(folder, scene)
+    planes = None
+    if scene.planes:
+        planes = (np.array([p.origin for p in scene.planes], dtype=float),
+                  np.array([p.normal for p in scene.planes], dtype=float))
+    return planes, scene.self_collision
