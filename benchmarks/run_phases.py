@@ -21,9 +21,9 @@ The phases, nested as they run:
       build                        scene, model and simulation (``runner._build``)
       output                       the folder, logs, frame 0, checkpoint 0 (``_open_output``)
       step loop                    ``runner._step_loop``:
-        steps                        ``Simulation.step``: the step's objective
-                                     (``Simulation.objective``), the compiled Newton
-                                     iterations where they run, Newton's final
+        steps                        ``Simulation.step``: the step's problem
+                                     (``Simulation.problem``), Newton's line searches
+                                     (``StepProblem.line_search``), its final
                                      evaluation (``NewtonSolver._finish``)
         frames, logs, checkpoints    ``_write_frame``, ``CsvLog.append_rows``, ``_checkpoint``
       run.json                     ``runner._run_info``
@@ -61,8 +61,8 @@ CLOCKED = (
     ("output", "ipcsim.runner", "_open_output"),
     ("step loop", "ipcsim.runner", "_step_loop"),
     ("steps", "ipcsim.simulation", "Simulation.step"),
-    ("the step's objective", "ipcsim.simulation", "Simulation.objective"),
-    ("compiled Newton iterations", "ipcsim.kernels.terms.newton_loop", "newton_iterations"),
+    ("the step's problem", "ipcsim.simulation", "Simulation.problem"),
+    ("line searches", "ipcsim.potentials.step_problem", "StepProblem.line_search"),
     ("final evaluation", "ipcsim.solver.newton", "NewtonSolver._finish"),
     ("frames", "ipcsim.runner", "_write_frame"),
     ("logs", "ipcsim.io.csv_log", "CsvLog.append_rows"),

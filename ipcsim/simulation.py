@@ -2,10 +2,10 @@
 
 One step is values flowing through functions:
 
-    state ─┬─ kinematic targets, body forces, x̃ ─► StepContext ─► StepObjective
+    state ─┬─ kinematic targets, body forces, x̃ ─► StepContext ─► StepProblem
            │                                     (+ friction lagged at xₙ)
-           ├─ warm start (bounded by the objective's max_step) ─► x₀
-           └─ Newton on the objective from x₀ (re-lagging friction fricIterAmt times)
+           ├─ warm start (bounded by the problem's max_step) ─► x₀
+           └─ Newton on the problem from x₀ (re-lagging friction fricIterAmt times)
                   ─► x ─► velocities ─► the next State, and a StepReport
 
 ``step()`` replaces ``state`` and returns a report (the steps.csv row and the newton.csv
@@ -30,12 +30,10 @@ from .compiler.twin import use_threads
 from .model.kinematics import kinematic_targets, nbc_accelerations
 from .model.surface import index_set
 from .potentials.base import StepContext, Triplets
-from .potentials.fused import available as fused_kernels_available
-from .potentials.fused import newton_available
-from .potentials.objective import StepObjective
+from .potentials.step_problem import StepProblem
 from .potentials.terms import incremental_potential
 from .solver.integrator import fix_kinematic_velocities, kinetic_energy, make_integrator
-from .solver.linear import DENSE_UP_TO, DENSE_WITH_COMPILED_NEWTON_UP_TO, make_solver
+from .solver.linear import DENSE_HESSIAN_UP_TO, DENSE_UP_TO, make_solver
 from .solver.newton import NewtonResult, NewtonSolver
 from .solver.timing import PhaseTimer
 
@@ -99,23 +97,16 @@ class Simulation:
         self.potential = incremental_potential(model, self.integrator.force_weight)
         self.contact = ContactSetup.from_model(model)
         self.timer = PhaseTimer()
-        # a dense Newton matrix takes the terms evaluated and added into it together
-        # (warm start 5 reads their triplets, the baselines their sparse Hessian); a scene
-        # too large for "auto" to factor dense is not fused at all
-        fused = (self.potential.fusing()
-                 if 3 * model.n_vertices <= DENSE_WITH_COMPILED_NEWTON_UP_TO
-                 and model.constraint_solver is None and model.solver.warm_start != 5
-                 and fused_kernels_available() else None)
-        compiled = fused is not None and fused.fused is not None and newton_available()
-        # free DOFs never exceed 3n: a small scene's "auto" solver factors dense, up to a
-        # larger size where Newton's iterations then run compiled
+        # the terms' Hessians go into a small system's dense matrix in one call (warm
+        # start 5 reads their triplets, the baselines their sparse Hessian): "auto" factors
+        # dense up to a larger size there
+        self.one_call_hessian = (model.constraint_solver is None
+                                 and model.solver.warm_start != 5)
         self.linear_solver = make_solver(
             linear_solver or model.solver.linear_solver, 3 * model.n_vertices,
-            dense_up_to=DENSE_WITH_COMPILED_NEWTON_UP_TO if compiled else DENSE_UP_TO)
+            dense_up_to=DENSE_HESSIAN_UP_TO if self.one_call_hessian else DENSE_UP_TO)
         self.newton = NewtonSolver(model.solver, self.linear_solver, self.timer,
                                    observer=self._observe)
-        if getattr(self.linear_solver, "dense", False) and fused is not None:
-            self.potential = fused
         self.on_iteration = None  # called with each newton.csv row as it completes (-v)
         self.stiffness = _initial_stiffness(model, self.contact)
         self.state = _initial_state(model, self.stiffness.kappa)
@@ -176,13 +167,13 @@ class Simulation:
         wall0 = time.perf_counter()
         self.timer.reset()
         before = self.state
-        objective = self.objective(before)
-        x0 = self.warm_start(objective)
-        result, lag_updates = self.minimise(objective, x0, self.tolerance(before.step))
+        problem, start = self.problem(before)
+        start = self.warm_start(problem, start)
+        result, lag_updates = self.minimise(problem, start, self.tolerance(before.step))
         if not np.isfinite(result.x).all():
             raise SolverError("positions became non-finite")
-        self.state = self.advance(before, result.x, objective)
-        self._collisions_at = objective.kept_collisions  # the next step starts at x
+        self.state = self.advance(before, result.x, result.problem)
+        self._collisions_at = _kept(result)  # the next step starts at x
         rows = tuple({**r, "step": self.state.step} for r in result.rows)
         notes = ()
         if self.constrained is not None:
@@ -191,11 +182,10 @@ class Simulation:
                 notes = (f"the state intersects ({crossing})",)
                 if self.outcome == "Pass":
                     self.outcome = "Intersecting"
-        return StepReport(self._step_row(result, objective, lag_updates, wall0), rows, result,
-                          notes)
+        return StepReport(self._step_row(result, lag_updates, wall0), rows, result, notes)
 
-    def objective(self, state: State) -> StepObjective:
-        """The step's incremental potential: kinematic targets and body forces at
+    def problem(self, state: State):
+        """(the step's problem, its start at xₙ): kinematic targets and body forces at
         t = step·h, the prediction x̃, damping and friction lagged at xₙ."""
         model, h, x = self.model, self.h, state.x
         kinematic, target = kinematic_targets(model, x, state.step * h, h)
@@ -211,26 +201,29 @@ class Simulation:
         ctx = StepContext(x_start=x, x_tilde=x_tilde, acceleration=accel, kinematic=kinematic,
                           target=target, dhat=model.dhat, damping=damping)
         stiffness = replace(self.stiffness, kappa=state.kappa).new_step()
-        objective = StepObjective(self.potential, ctx, self.contact, stiffness, self.timer,
-                                  pullable=self._pullable, small_step=self._pull_step,
-                                  collisions_at=self._collisions_at)
+        problem = StepProblem(self.potential, ctx, self.contact, stiffness, self.timer,
+                              dense=self.one_call_hessian
+                              and getattr(self.linear_solver, "dense", False),
+                              pullable=self._pullable, small_step=self._pull_step)
+        start = problem.start(x, self._collisions_at)
         if self.potential.term("friction") is not None:
-            objective.lag_friction(x)
-        return objective
+            problem, start = problem.lag_friction(start)
+        return problem, start
 
     def tolerance(self, step: int) -> float:
         """Newton's ‖p‖∞ tolerance of step ``step`` (tol·l·h); friction's static ramp has
         a test of its own (``Friction.resolved``)."""
         return self.model.newton_tol(step)
 
-    def minimise(self, objective: StepObjective, x0, tol) -> tuple[NewtonResult, int]:
-        """Newton from x0; with friction, normal forces and tangents are re-lagged at the
-        solution fricIterAmt − 1 more times (≤ 0: until the solution stops moving, at most
-        the cap). Returns the result and the number of friction lags. The SQP / QP
-        baselines minimise with their own solver (x0 then only seeds their constraints)."""
+    def minimise(self, problem: StepProblem, start, tol) -> tuple[NewtonResult, int]:
+        """Newton from the start point; with friction, normal forces and tangents are
+        re-lagged at the solution fricIterAmt − 1 more times (≤ 0: until the solution stops
+        moving, at most the cap). Returns the result and the number of friction lags. The
+        SQP / QP baselines minimise with their own solver (x₀ then only seeds their
+        constraints)."""
         if self.constrained is not None:
-            return self.constrained.minimise(objective, x0, tol), 0
-        result = self.newton.solve(objective, x0, tol)
+            return self.constrained.minimise(problem, start.x, tol), 0
+        result = self.newton.solve(problem, start, tol)
         if self.potential.term("friction") is None:
             return result, 0
         settings = self.model.solver
@@ -238,10 +231,10 @@ class Simulation:
         cap = wanted if wanted > 0 else settings.friction_iteration_cap
         lags = 1
         while lags < cap:
-            objective.lag_friction(result.x)
+            problem, point = result.problem.lag_friction(result.point)
             lags += 1
             before = result.x
-            result = result.then(self.newton.solve(objective, result.x, tol))
+            result = result.then(self.newton.solve(problem, point, tol))
             if wanted <= 0 and np.abs(result.x - before).max() < tol:
                 break
         else:
@@ -250,22 +243,22 @@ class Simulation:
                               f"{cap} updates", stacklevel=2)
         return result, lags
 
-    def advance(self, before: State, x_new, objective: StepObjective) -> State:
+    def advance(self, before: State, x_new, problem: StepProblem) -> State:
         """The state after the step that ends at x_new."""
-        h, ctx = self.h, objective.ctx
+        h, ctx = self.h, problem.ctx
         v_new, a_new = self.integrator.update(x_new, before.x, before.v, before.a)
         if not self.integrator.kinematic_rates:
             v_new, a_new = fix_kinematic_velocities(v_new, a_new, ctx.kinematic, x_new,
                                                     before.x, before.v, h)
         dx_elastic = (x_new - (before.x + h * before.v + h * h * ctx.acceleration)
                       if self.model.solver.warm_start in (3, 4) else None)
-        return State(x_new, v_new, a_new, before.step + 1, objective.stiffness.kappa,
+        return State(x_new, v_new, a_new, before.step + 1, problem.stiffness.kappa,
                      dx_elastic, (before.step + 1) * h)
 
-    def _step_row(self, result: NewtonResult, objective, lag_updates: int, wall0) -> dict:
+    def _step_row(self, result: NewtonResult, lag_updates: int, wall0) -> dict:
         model, st, final = self.model, self.state, result.final
         phases = self.timer.reset()
-        friction = objective.ctx.friction
+        friction = result.problem.ctx.friction
         return {
             "step": st.step, "time": st.step * self.h, "dt": self.h,
             "newton_iterations": result.iterations, "converged": int(result.converged),
@@ -288,31 +281,40 @@ class Simulation:
             "wall_contact_set_s": phases.get("contact_set", 0.0),
         }
 
-    def warm_start(self, objective: StepObjective):
-        """The initial guess of the step for free vertices (``warmStart`` 0..5), cut back
-        by the feasibility bound so it never intersects or inverts."""
+    def warm_start(self, problem: StepProblem, start):
+        """The point the step's Newton starts from for free vertices (``warmStart`` 0..5),
+        cut back by the feasibility bound so it never intersects or inverts."""
         st, h, option = self.state, self.h, self.model.solver.warm_start
         if option == 0:
-            return st.x.copy()
+            return replace(start, x=st.x.copy())
         guess = st.x + h * st.v
         if option >= 2:
-            guess = guess + h * h * objective.ctx.acceleration
+            guess = guess + h * h * problem.ctx.acceleration
         if option == 3 and st.dx_elastic is not None:
             guess = guess + st.dx_elastic
         elif option == 4 and st.dx_elastic is not None:
             guess = guess + 0.5 * st.dx_elastic
         elif option == 5:
             # one Jacobi step on the incremental potential from x_n
-            ev = objective.evaluate(st.x, 2, adapt=False)
+            _, ev = problem.evaluate(start, 2, adapt=False)
             H = Triplets.concat(ev.hessian[0] + ev.hessian[1])
             on_diagonal = H.rows == H.cols
             diag = np.bincount(H.rows[on_diagonal], weights=H.vals[on_diagonal],
                                minlength=st.x.size)
             guess = st.x - (ev.gradient / np.where(diag > 0, diag, 1.0)).reshape(-1, 3)
         p = guess - st.x
-        p[objective.kinematic] = 0.0
-        alpha = min(1.0, objective.max_step(st.x, p.reshape(-1)).max_alpha)
-        return st.x + alpha * p
+        p[problem.kinematic] = 0.0
+        alpha, ccd_alpha = problem.max_step(st.x, p.reshape(-1))
+        return problem.start(st.x + min(1.0, alpha) * p, self._collisions_at, ccd_alpha)
+
+
+def _kept(result: NewtonResult):
+    """(x, the collision set at x in canonical order) where the step ended: the next
+    step's start."""
+    point = result.point
+    if point.collisions is None:
+        return None
+    return point.x, point.collisions.in_canonical_order()
 
 
 # -- the start of a run ---------------------------------------------------------------------

@@ -22,15 +22,20 @@ def repo_root() -> Path:
 
 @pytest.fixture
 def pulls_end_by_placement(monkeypatch) -> list:
-    """Pulls of prescribed vertices end only in their tail, where ``StepObjective`` places
+    """Pulls of prescribed vertices end only in their tail, where ``StepProblem`` places
     the vertices on their targets (never at 99.9 % done); returns what each placement
     attempt gave (the placed x, or None where the move was not free)."""
     from ipcsim.potentials.boundary_pull import PullSchedule
-    from ipcsim.potentials.objective import StepObjective
+    from ipcsim.potentials.step_problem import StepProblem
 
-    monkeypatch.setattr(PullSchedule, "done", 1.0)  # for the schedule and the compiled calls
+    monkeypatch.setattr(PullSchedule, "done", 1.0)
     placed = []
-    place = StepObjective._place_pulled
-    monkeypatch.setattr(StepObjective, "_place_pulled",
-                        lambda self, x: placed.append(place(self, x)) or placed[-1])
+    place = StepProblem._placed
+
+    def placing(self, point):
+        got = place(self, point)
+        placed.append(None if got is None else got[1].x)
+        return got
+
+    monkeypatch.setattr(StepProblem, "_placed", placing)
     return placed

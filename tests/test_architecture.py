@@ -9,7 +9,7 @@
   reader that never blocks on a special file) and ``records``;
   ``scene/`` and ``io/`` do not lean on each other;
 * the terms of the incremental potential are frozen records (msgspec Structs);
-* Newton takes an objective, a start and a tolerance; no function takes more than eight
+* Newton takes a problem, a start and a tolerance; no function takes more than eight
   parameters (numba kernels aside) or runs longer than about 80 lines.
 """
 
@@ -191,11 +191,11 @@ def test_terms_are_frozen_records():
         assert issubclass(cls, msgspec.Struct) and cls.__struct_config__.frozen, cls
 
 
-def test_newton_takes_an_objective_a_start_and_a_tolerance():
+def test_newton_takes_a_problem_a_start_and_a_tolerance():
     from ipcsim.solver.newton import NewtonSolver
 
     assert list(inspect.signature(NewtonSolver.solve).parameters) == [
-        "self", "objective", "x0", "tol"]
+        "self", "problem", "point", "tol"]
 
 
 def _functions():

@@ -72,16 +72,19 @@ class ConstrainedSolver:
         self.energy = energy
         self.assembler = Assembler()
 
-    def minimise(self, objective, x_guess: np.ndarray, tol: float) -> NewtonResult:
-        run = self._start(objective, x_guess)
+    def minimise(self, problem, x_guess: np.ndarray, tol: float) -> NewtonResult:
+        """The step's problem (``potentials/step_problem.py``, without barriers)
+        minimised from the start xₙ with the prescribed vertices on their targets; a
+        warm start ``x_guess`` only seeds the active set."""
+        run = self._start(problem, x_guess)
         s, x = self.settings, run.x0
         ev, converged = None, False
         for it in range(s.max_iterations):
             if ev is None or s.method == "SQP":
-                ev = objective.evaluate(x, 2, adapt=False)
+                _, ev = problem.evaluate(problem.start(x), 2, adapt=False)
                 H, g = self._system(ev, run)
             x_lin = run.x0 if s.method == "QP" else x
-            x_new, step_norm = self._qp_step(objective, x_lin, (H, g), run, it)
+            x_new, step_norm = self._qp_step(problem, x_lin, (H, g), run, it)
             with self.timer("ccd_line_search"):
                 run.active, added = grow(run.active, self.geometry, run.x_start, x_new)
             x = x_new
@@ -90,15 +93,15 @@ class ConstrainedSolver:
             if settled and (s.method == "QP" or step_norm < tol) and run.failures == 0:
                 converged = True
                 break
-        final = objective.evaluate(x, 0)
+        _, final = problem.evaluate(problem.start(x), 0)
         final = msgspec.structs.replace(final, contacts=self._contacts(x, run.active))
         return NewtonResult(x=x, final=final, iterations=len(run.rows), converged=converged,
                             hit_iteration_cap=not converged, min_alpha=run.min_alpha,
-                            rows=tuple(run.rows))
+                            rows=tuple(run.rows), problem=problem)
 
     # -- the pieces of a step --------------------------------------------------------------------
-    def _start(self, objective, x_guess) -> _Run:
-        ctx = objective.ctx
+    def _start(self, problem, x_guess) -> _Run:
+        ctx = problem.ctx
         x_n, kinematic = ctx.x_start, ctx.kinematic
         x0 = x_n.copy()
         x0[kinematic] = ctx.target[kinematic]
@@ -122,7 +125,7 @@ class ConstrainedSolver:
                                            np.zeros(run.free_index.size))
         return H.to_scipy(), ev.gradient[run.free_index >= 0]
 
-    def _qp_step(self, objective, x_lin, system, run: _Run, it: int):
+    def _qp_step(self, problem, x_lin, system, run: _Run, it: int):
         """Solve the QP linearised at x_lin; returns (x_new, ‖αΔx‖∞)."""
         H, g = system
         lin = linearise(run.active, self.geometry, x_lin, run.free_index, run.n_free)
@@ -147,23 +150,23 @@ class ConstrainedSolver:
             raise SolverError(f"blow-up: QP {it + 1} moves a vertex by {length:.3g} m, more "
                               f"than {self.settings.blow_up_factor:g} times the scene's "
                               f"extent ({run.extent:.3g} m)", label="Blow-up")
-        alpha = self._inversion_free(objective, x_lin, dx3, it)
+        alpha = self._inversion_free(problem, x_lin, dx3, it)
         run.alpha, run.min_alpha = alpha, min(run.min_alpha, alpha)
         return x_lin + alpha * dx3, alpha * float(np.abs(qp.dx).max(initial=0.0))
 
-    def _inversion_free(self, objective, x, dx3, it: int) -> float:
+    def _inversion_free(self, problem, x, dx3, it: int) -> float:
         """α = 1, or with neo-Hookean elasticity the inversion bound (halved while a tet
         still inverts). The original halves that bound at least once, which takes only
         half of every QP's step (its SQP and QP examples all use fixed corotated
         elasticity, where it takes the whole step)."""
-        elasticity = objective.potential.term("elasticity")
+        elasticity = problem.potential.term("elasticity")
         if self.energy != "NH" or elasticity is None:
             return 1.0
-        alpha = min(1.0, objective.potential.max_step(x, dx3.reshape(-1), objective.ctx))
+        alpha = min(1.0, problem.max_step(x, dx3.reshape(-1), with_mesh=False)[0])
         if not alpha >= 0.0:
-            raise NonFiniteError("step bound", objective.nonfinite_terms(x), it)
+            raise NonFiniteError("step bound", problem.nonfinite_terms(x), it)
         for _ in range(60):
-            if np.isfinite(elasticity.value(x + alpha * dx3, objective.ctx)):
+            if np.isfinite(elasticity.value(x + alpha * dx3, problem.ctx)):
                 return alpha
             alpha *= 0.5
         return 0.0

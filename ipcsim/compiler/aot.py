@@ -79,6 +79,13 @@ def matcher(entries: dict | None, code=None):
     if not entries:
         return _no_match
     namespace = dict(_MATCH_NAMES)
+    passed = namespace["passed"] = {}  # the last tuple that passed each tuple test
+
+    def keep(slot, value):
+        passed[slot] = value
+        return True
+
+    namespace["keep"] = keep
     namespace.update((f"f{i}", function) for i, function in enumerate(entries.values()))
     exec(code or matcher_code(tuple(entries)), namespace)  # noqa: S102
     return namespace["match"]
@@ -91,12 +98,25 @@ def matcher_code(keys: tuple):
     (``store_matchers``)."""
     names = (f"v{i}" for i in itertools.count())  # each value is looked up once
     lines = ["def match(args):", "    n = len(args)"]
+    slots = itertools.count()
     for i, key in enumerate(keys):
-        tests = [f"n == {len(key)}"] + [_test(f"args[{j}]", k, names)
+        tests = [f"n == {len(key)}"] + [_argument_test(j, k, names, slots)
                                         for j, k in enumerate(key)]
         lines += [f"    if {' and '.join(tests)}:", f"        return f{i}"]
     lines.append("    return None")
     return compile("\n".join(lines), "<aot.matcher>", "exec")
+
+
+def _argument_test(j: int, key, names, slots) -> str:
+    """``_test`` of argument j; a tuple argument that passed is remembered, and the same
+    tuple object passes again without its items being tested (a tuple's items are the
+    same objects for its whole life: the kernels' data tuples, made once per time step
+    and passed at every call, hold some 40 arrays)."""
+    test = _test(f"args[{j}]", key, names)
+    if not (isinstance(key, tuple) and not (len(key) == 2 and isinstance(key[1], int))):
+        return test
+    k = next(slots)
+    return f"(args[{j}] is passed.get({k}) or ({test} and keep({k}, args[{j}])))"
 
 
 def _no_match(args):

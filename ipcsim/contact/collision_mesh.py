@@ -77,6 +77,11 @@ class CollisionMesh(Struct, frozen=True, eq=False, dict=True):
         return (self.vertices.reshape(-1, 1), self.edges, self.triangles, self.tags,
                 bool(self.self_collision), rest)
 
+    @cached_property
+    def line_search_arrays(self) -> tuple:
+        """``kernel_arrays`` and True (there is mesh contact): the line search's mesh."""
+        return self.kernel_arrays + (True,)
+
     @staticmethod
     def of(n_vertices: int, vertices, edges, triangles, body=None, kinematic=None,
            self_collision: bool = True, rest=None) -> "CollisionMesh":

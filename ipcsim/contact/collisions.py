@@ -18,8 +18,7 @@ from functools import cached_property
 from msgspec import Struct
 import numpy as np
 
-from ..kernels.contact.broad_phase import swept_pairs_within
-from ..kernels.contact.pair_barrier import classify_and_distance, near_pairs
+from ..kernels.contact.pair_barrier import active_pairs, classify_and_distance, near_pairs
 from ..kernels.contact.mollifier import edge_edge_mollifier_thresholds
 from .candidates import find_candidates
 from .collision_mesh import CollisionMesh
@@ -76,24 +75,13 @@ class Collisions(Struct, frozen=True, eq=False, dict=True):
         """The smallest squared distance at the positions found at (inf without pairs);
         asked by each term at each evaluation, so found once."""
         d = self.distances
-        return min(float(d.pt_d2.min()) if len(d.pt_d2) else math.inf,
-                   float(d.ee_d2.min()) if len(d.ee_d2) else math.inf)
+        return float(active_pairs(d.pt_d2, d.ee_d2, 0.0)[2])
 
     def count(self, dhat: float) -> MeshContactCount:
         """Active pairs and the smallest distance (needs the distances)."""
         d = self.distances
-        s_hat = dhat * dhat
-        dmin = np.sqrt(self._min_d2)
-        return MeshContactCount(int(np.count_nonzero(d.pt_d2 < s_hat)),
-                                int(np.count_nonzero(d.ee_d2 < s_hat)), float(dmin))
-
-    def within_motion(self, x0, x1, dhat: float) -> "Collisions":
-        """The pairs that come within d̂ (box test) somewhere on x0 -> x1: a cheap filter
-        of a set found over a longer motion."""
-        keep_pt = swept_pairs_within(x0, x1, self.pt, 1, dhat)
-        keep_ee = swept_pairs_within(x0, x1, self.ee, 2, dhat)
-        return Collisions(self.pt[keep_pt], self.ee[keep_ee], self.ee_eps_x[keep_ee], None,
-                          _kept(self.pt_id, keep_pt), _kept(self.ee_id, keep_ee))
+        n_pt, n_ee, min_d2 = active_pairs(d.pt_d2, d.ee_d2, float(dhat) * float(dhat))
+        return MeshContactCount(int(n_pt), int(n_ee), math.sqrt(min_d2))
 
     def in_canonical_order(self) -> "Collisions":
         """The same pairs, each kind by increasing id (every set this module builds has
@@ -108,10 +96,6 @@ class Collisions(Struct, frozen=True, eq=False, dict=True):
                               d.ee_d2[ee_order])
         return Collisions(self.pt[pt_order], self.ee[ee_order], self.ee_eps_x[ee_order], d,
                           self.pt_id[pt_order], self.ee_id[ee_order])
-
-
-def _kept(ids: np.ndarray | None, which: np.ndarray) -> np.ndarray | None:
-    return None if ids is None else ids[which]
 
 
 def pair_ids(mesh: CollisionMesh, pt_index: np.ndarray, ee_index: np.ndarray):

@@ -18,8 +18,7 @@ from msgspec import Struct
 from msgspec.structs import replace
 import numpy as np
 
-from ..kernels.contact.barrier import (balanced_stiffness, barrier_second_derivative,
-                               stiffness_doubles)
+from ..kernels.contact.barrier import balanced_stiffness, barrier_second_derivative
 
 
 def kappa_bounds(bbox_diagonal: float, dhat: float, mean_mass: float,
@@ -33,16 +32,16 @@ def kappa_bounds(bbox_diagonal: float, dhat: float, mean_mass: float,
 
 def balanced_kappa(g_barrier: np.ndarray, g_rest: np.ndarray, kappa_min: float,
                    kappa_max: float) -> float:
-    """The κ that balances the two gradients (the compiled Newton iterations take the
-    same kernel)."""
+    """The κ that balances the two gradients (a kernel: two sums in index order)."""
     return float(balanced_stiffness(np.ascontiguousarray(g_barrier, dtype=np.float64),
                                     np.ascontiguousarray(g_rest, dtype=np.float64),
                                     float(kappa_min), float(kappa_max)))
 
 
 def should_double(prev_min_d_sq: float, min_d_sq: float, eps_sq: float) -> bool:
-    """The original's update: contacts tighter than dTol and getting tighter."""
-    return bool(stiffness_doubles(float(prev_min_d_sq), float(min_d_sq), float(eps_sq)))
+    """The original's doubling of κ: the closest contact is tighter than dTol (ε² =
+    eps_sq) and getting tighter (squared distances)."""
+    return prev_min_d_sq < eps_sq and min_d_sq < eps_sq and min_d_sq < prev_min_d_sq
 
 
 class BarrierStiffness(Struct, frozen=True):

@@ -13,7 +13,8 @@ from msgspec import Struct
 from msgspec.structs import force_setattr
 import numpy as np
 
-from ..kernels.terms.simple import body_force_value
+from ..kernels.terms import all_terms as terms_kernels
+from ..kernels.terms.simple import body_force_gradient, body_force_value
 from .base import StepContext, Triplets
 
 
@@ -22,6 +23,7 @@ class BodyForce(Struct, frozen=True, eq=False):
 
     mass: np.ndarray  # (n,) lumped masses
     name: ClassVar[str] = "body force"
+    kind: ClassVar[int] = terms_kernels.BODY_FORCE  # its data in the all-terms kernels
     constant_pattern: ClassVar[bool] = False
 
     def __post_init__(self):
@@ -32,7 +34,7 @@ class BodyForce(Struct, frozen=True, eq=False):
         return body_force_value(self.mass, ctx.acceleration, x)
 
     def gradient(self, x, ctx: StepContext):
-        return -(self.mass[:, None] * ctx.acceleration).reshape(-1)
+        return body_force_gradient(self.mass, ctx.acceleration)
 
     def hessian(self, x, ctx: StepContext):
         return Triplets.empty()

@@ -6,7 +6,7 @@ an augmented Lagrangian, as the original's moving boundary conditions (IPC, sect
 over the pulled vertices k (prescribed vertices of bodies: m_k > 0), with targets x̂_k.
 While it acts, those vertices are free DOFs of the step, so the Newton direction balances
 the pull against contact instead of forcing the prescribed motion through it (which CCD
-then cuts to a sliver of a step, iteration after iteration). ``StepObjective`` adds it to
+then cuts to a sliver of a step, iteration after iteration). ``StepProblem`` adds it to
 the step's potential and tightens it (``PullSchedule``): ρ doubles while the vertices do
 not close in, until
 
@@ -27,7 +27,8 @@ from msgspec import Struct
 from msgspec.structs import replace
 import numpy as np
 
-from ..kernels.terms.simple import pull_gradient, pull_value
+from ..kernels.terms import all_terms as terms_kernels
+from ..kernels.terms.simple import pull_gradient, pull_hessian_diagonal, pull_value
 from .base import StepContext, Triplets
 
 START_RHO = 1e6  # ρ at the start of a pull (the original's)
@@ -45,6 +46,7 @@ class BoundaryPull(Struct, frozen=True, eq=False):
     rho: float = START_RHO
     lam: np.ndarray | None = None  # (k, 3) multipliers λ; zero when None
     name: ClassVar[str] = "boundary_pull"
+    kind: ClassVar[int] = terms_kernels.PULL  # its data in the all-terms kernels
     constant_pattern: ClassVar[bool] = False
 
     def _offset(self, x) -> np.ndarray:
@@ -62,8 +64,8 @@ class BoundaryPull(Struct, frozen=True, eq=False):
         return pull_gradient(x, *self._args())
 
     def hessian(self, x, ctx: StepContext | None = None) -> Triplets:
-        dofs = (3 * self.vertices[:, None] + np.arange(3)).reshape(-1)
-        return Triplets(dofs, dofs, np.repeat(self.rho * self.mass, 3))
+        dofs, diagonal = pull_hessian_diagonal(self.vertices, self.mass, float(self.rho))
+        return Triplets(dofs, dofs, diagonal)
 
     def completion(self, x) -> float:
         """The part of the pulled vertices' prescribed motion done at x (1: all)."""

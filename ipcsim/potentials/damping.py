@@ -17,6 +17,7 @@ from typing import ClassVar
 
 from msgspec import Struct
 
+from ..kernels.terms import all_terms as terms_kernels
 from ..kernels.terms.simple import damping_value
 from .base import ElementHessian, LaggedDamping, StepContext
 
@@ -26,6 +27,7 @@ class Damping(Struct, frozen=True, eq=False):
 
     scale: float  # k/h
     name: ClassVar[str] = "damping"
+    kind: ClassVar[int] = terms_kernels.DAMPING  # its data in the all-terms kernels
     constant_pattern: ClassVar[bool] = True
 
     @staticmethod

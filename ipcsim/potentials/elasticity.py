@@ -24,6 +24,7 @@ from msgspec import Struct
 from msgspec.structs import force_setattr
 import numpy as np
 
+from ..kernels.terms import all_terms as terms_kernels
 from ..kernels.elasticity import tets as kern
 from .base import ElementHessian
 
@@ -51,6 +52,7 @@ class Elasticity(Struct, frozen=True, eq=False):
     n_vertices: int
     min_volume_ratio: float = 0.1
     name: ClassVar[str] = "elasticity"
+    kind: ClassVar[int] = terms_kernels.ELASTICITY  # its data in the all-terms kernels
     constant_pattern: ClassVar[bool] = True  # same triplet index arrays on every call
 
     def __post_init__(self):

@@ -30,6 +30,7 @@ from msgspec import Struct
 from msgspec.structs import force_setattr
 import numpy as np
 
+from ..kernels.terms import all_terms as terms_kernels
 from ..kernels.contact import friction as kf
 from .base import StepContext, Triplets
 
@@ -42,6 +43,7 @@ class Friction(Struct, frozen=True, eq=False):
     ramp_resolution: float = 0.1  # pairs that must slide: resolved when p moves them < this·ε
     body: np.ndarray | None = None  # (n,) body id of each vertex; None: one body
     name: ClassVar[str] = "friction"
+    kind: ClassVar[int] = terms_kernels.FRICTION  # its data in the all-terms kernels
     constant_pattern: ClassVar[bool] = False
 
     def __post_init__(self):

@@ -4,11 +4,11 @@
 
 with w = h² for backward Euler and β h² for Newmark. Barrier terms are evaluated at unit
 stiffness and scaled by κ here, so that κ can be balanced and doubled without evaluating
-anything again. ``evaluate`` returns every term's value (and gradient and Hessian) at one
-x as a ``TermValues``; the sums at a given κ are taken from it. A potential made
-``fusing()`` evaluates its terms together, one kernel call each for the values, the
-gradients and the Hessians (``fused.py``: the same numbers, a fraction of the calls), for
-small scenes whose Newton matrix is dense.
+anything again. The terms are evaluated together, one kernel call for every value and
+one for every gradient (``kernel_data.py``, ``kernels/terms/all_terms.py``); their
+Hessians are added into a dense matrix in one call for a small system, or given term by
+term for the sparse assembly. ``TermValues`` holds what one evaluation at x gave; the
+sums at a given κ are taken from it.
 """
 
 from __future__ import annotations
@@ -16,11 +16,11 @@ from __future__ import annotations
 from functools import cached_property
 
 from msgspec import Struct
-from msgspec.structs import replace
 import numpy as np
 
-from .base import Potential, StepContext, Triplets
-from .fused import FusedTerms
+from ..kernels.terms import all_terms as kt
+from .base import Potential, StepContext
+from .kernel_data import DenseHessian, TermData
 
 
 class WeightedTerm(Struct, frozen=True, eq=False):
@@ -34,84 +34,19 @@ class WeightedTerm(Struct, frozen=True, eq=False):
         return self.weight * kappa if self.barrier else self.weight
 
 
-class TermValues(Struct, frozen=True, eq=False, dict=True):
-    """Each term's value, and with order ≥ 1 its gradient, with order 2 its Hessian, at
-    one x (unweighted; the weights and κ are applied by the sums).
-
-    The values are evaluated when first read: at a Newton iterate the line search that
-    reached x has given E(x) already, and Newton reads them again only where κ or the
-    potential itself changed there."""
+class IncrementalPotential(Struct, frozen=True, eq=False, dict=True):
+    """The step's potential: its weighted terms, in the order they are summed."""
 
     terms: tuple[WeightedTerm, ...]
-    x: np.ndarray
-    ctx: StepContext
-    gradients: tuple[np.ndarray, ...] | None = None
-    hessians: tuple[Triplets, ...] | None = None  # None with ``fused``: made at κ
-    fused: FusedTerms | None = None  # the terms evaluated together
-    known: tuple[float, ...] | None = None  # the values, where a line search gave them
 
     @cached_property
-    def values(self) -> tuple[float, ...]:
-        if self.known is not None:
-            return self.known
-        if self.fused is not None:
-            return self.fused.values(self.x, self.ctx)
-        return tuple(float(t.term.value(self.x, self.ctx)) for t in self.terms)
-
-    def energy(self, kappa: float) -> float:
-        return float(sum(t.factor(kappa) * v for t, v in zip(self.terms, self.values)))
-
-    def value_of(self, name: str) -> float | None:
-        """The unweighted value of the term called ``name`` (None if absent)."""
-        for t, v in zip(self.terms, self.values):
-            if t.term.name == name:
-                return v
-        return None
-
-    def gradient(self, kappa: float) -> np.ndarray:
-        g = np.zeros_like(self.gradients[0])
-        for t, gi in zip(self.terms, self.gradients):
-            g += t.factor(kappa) * gi
-        return g
-
-    def split_gradient(self) -> tuple[np.ndarray, np.ndarray]:
-        """(Σ barrier gradients at κ = 1, Σ of every other term's): what κ balances."""
-        g_barrier, g_rest = np.zeros_like(self.gradients[0]), np.zeros_like(self.gradients[0])
-        for t, gi in zip(self.terms, self.gradients):
-            if t.barrier:
-                g_barrier += t.weight * gi
-            else:
-                g_rest += t.weight * gi
-        return g_barrier, g_rest
-
-    def hessian(self, kappa: float) -> tuple[list[Triplets], list[Triplets]]:
-        """Weighted PSD triplets split into terms whose sparsity pattern never changes
-        (``constant_pattern``) and the rest (contact, friction); fused, one part that
-        adds them all into a dense matrix."""
-        if self.fused is not None:
-            return [self.fused.hessian(self.x, self.ctx, kappa)], []
-        static, dynamic = [], []
-        for t, h in zip(self.terms, self.hessians):
-            (static if t.term.constant_pattern else dynamic).append(h.scaled(t.factor(kappa)))
-        return static, dynamic
-
-
-class IncrementalPotential(Struct, frozen=True, eq=False, dict=True):
-    """The step's potential: its weighted terms, evaluated together where ``fused``."""
-
-    terms: tuple[WeightedTerm, ...]
-    fused: FusedTerms | None = None  # set by ``fusing``
-
-    def fusing(self) -> "IncrementalPotential":
-        """The same potential with its terms evaluated together (``fused.py``) where they
-        all can be; its Hessians then go into a dense matrix only."""
-        return replace(self, fused=FusedTerms.of(self.terms))
+    def kernel(self) -> TermData:
+        """The terms packed for the all-terms kernels."""
+        return TermData.of(self.terms)
 
     def with_term(self, term: WeightedTerm) -> "IncrementalPotential":
-        """This potential plus ``term`` (last), fused if this one is."""
-        terms = self.terms + (term,)
-        return IncrementalPotential(terms, None if self.fused is None
-                                    else FusedTerms.of(terms))
+        """This potential plus ``term`` (last)."""
+        return IncrementalPotential(self.terms + (term,))
 
     def term(self, name: str) -> Potential | None:
         """The term called ``name`` ("elasticity", "friction", ...), None if absent."""
@@ -125,28 +60,33 @@ class IncrementalPotential(Struct, frozen=True, eq=False, dict=True):
             by_name.setdefault(weighted.term.name, weighted.term)
         return by_name
 
-    def evaluate(self, x: np.ndarray, ctx: StepContext, order: int = 0) -> TermValues:
-        """The terms at x: their gradients (order ≥ 1) and Hessians (order 2) now, their
-        values when first read (``TermValues.values``)."""
-        if self.fused is not None:
-            gradients = self.fused.gradients(x, ctx) if order >= 1 else None
-            return TermValues(self.terms, x, ctx, gradients, None, self.fused)
-        gradients = tuple(t.term.gradient(x, ctx) for t in self.terms) if order >= 1 else None
-        hessians = tuple(t.term.hessian(x, ctx) for t in self.terms) if order >= 2 else None
-        return TermValues(self.terms, x, ctx, gradients, hessians)
+    def evaluate(self, x: np.ndarray, ctx: StepContext, data: tuple, order: int = 0,
+                 known: tuple | None = None) -> "TermValues":
+        """The terms at x in ``ctx`` (``data``: ``kernel.data(ctx)``; the mesh's pairs are
+        ``ctx.collisions``): their gradients now (order ≥ 1), their values when first
+        read, or ``known`` where a line search gave them at x."""
+        pairs = self.kernel.pairs(ctx.collisions, ctx.dhat)
+        gradients = None
+        if order >= 1:
+            gradients = kt.term_gradients(x, self.kernel.present, data, pairs)
+        return TermValues(self, x, ctx, data, pairs, gradients, known)
 
-    def value(self, x: np.ndarray, ctx: StepContext, kappa: float) -> float:
-        return self.evaluate(x, ctx, 0).energy(kappa)
-
-    def max_step(self, x: np.ndarray, p: np.ndarray, ctx: StepContext) -> float:
-        """Largest feasible step fraction of the terms that bound one (the inversion bound
-        of neo-Hookean elasticity, the planes' CCD)."""
-        alpha = 1.0
+    def hessian(self, x: np.ndarray, ctx: StepContext, data: tuple, kappa: float,
+                dense: bool, factors: np.ndarray | None = None) -> tuple[list, list]:
+        """The weighted, PSD-projected Hessian at x: one part that adds every term into a
+        dense matrix (``dense``; ``factors`` each kind's factor at κ where known), or each
+        term's triplets split into those whose sparsity pattern never changes
+        (``constant_pattern``) and the rest (contact, friction)."""
+        if dense:
+            k = self.kernel
+            return [DenseHessian(x.copy(), k.present,
+                                 k.factors(kappa) if factors is None else factors, data,
+                                 k.pairs(ctx.collisions, ctx.dhat))], []
+        static, dynamic = [], []
         for t in self.terms:
-            bound = getattr(t.term, "max_step", None)
-            if bound is not None:
-                alpha = min(alpha, bound(x, p, ctx))
-        return alpha
+            h = t.term.hessian(x, ctx).scaled(t.factor(kappa))
+            (static if t.term.constant_pattern else dynamic).append(h)
+        return static, dynamic
 
     def resolved(self, x: np.ndarray, p: np.ndarray, ctx: StepContext) -> bool:
         """Whether every term that has a stopping test of its own (friction's static
@@ -163,9 +103,69 @@ class IncrementalPotential(Struct, frozen=True, eq=False, dict=True):
             with np.errstate(all="ignore"):
                 finite = (np.isfinite(term.value(x, ctx))
                           and np.isfinite(term.gradient(x, ctx)).all()
-                          and np.isfinite(term.hessian(x, ctx).vals).all())
+                          and np.isfinite(term.hessian(x, ctx).values).all())
             if finite and p is not None and getattr(term, "max_step", None) is not None:
                 finite = not np.isnan(term.max_step(x, p, ctx))
             if not finite:
                 bad.append(term.name)
         return bad
+
+
+class TermValues(Struct, frozen=True, eq=False, dict=True):
+    """Each term's value, and with order ≥ 1 its gradient, at one x (unweighted; the
+    weights and κ are applied by the sums). The values are evaluated when first read: at
+    a Newton iterate the line search that reached x has given them already (``known``),
+    and Newton reads them only where it needs E(x) at another κ."""
+
+    potential: IncrementalPotential
+    x: np.ndarray
+    ctx: StepContext
+    data: tuple
+    pairs: tuple
+    gradients: np.ndarray | None = None  # (N_KINDS, 3n), by kind
+    known: tuple[float, ...] | None = None  # the values, where a line search gave them
+
+    @cached_property
+    def values(self) -> tuple[float, ...]:
+        """Each term's value, in the terms' order."""
+        if self.known is not None:
+            return self.known
+        k = self.potential.kernel
+        by_kind = kt.term_values(self.x, k.present, self.data, self.pairs).tolist()
+        return tuple(by_kind[kind] for kind in k.kinds)
+
+    @property
+    def terms(self) -> tuple[WeightedTerm, ...]:
+        return self.potential.terms
+
+    def energy(self, kappa: float) -> float:
+        return float(sum(t.factor(kappa) * v for t, v in zip(self.terms, self.values)))
+
+    def value_of(self, name: str) -> float | None:
+        """The unweighted value of the term called ``name`` (None if absent)."""
+        for t, v in zip(self.terms, self.values):
+            if t.term.name == name:
+                return v
+        return None
+
+    def _rows(self):
+        return zip(self.terms, (self.gradients[k] for k in self.potential.kernel.kinds))
+
+    def weighted(self, kappa: float) -> tuple[np.ndarray, np.ndarray]:
+        """(each kind's factor at κ, ∇E at κ)."""
+        return kt.weighted_gradient(self.gradients, self.potential.kernel.weighing,
+                                    float(kappa))
+
+    def gradient(self, kappa: float) -> np.ndarray:
+        return self.weighted(kappa)[1]
+
+    def split_gradient(self) -> tuple[np.ndarray, np.ndarray]:
+        """(Σ barrier gradients at κ = 1, Σ of every other term's): what κ balances."""
+        n = self.gradients.shape[1]
+        g_barrier, g_rest = np.zeros(n), np.zeros(n)
+        for t, gi in self._rows():
+            if t.barrier:
+                g_barrier += t.weight * gi
+            else:
+                g_rest += t.weight * gi
+        return g_barrier, g_rest

@@ -10,7 +10,8 @@ from msgspec import Struct
 from msgspec.structs import force_setattr
 import numpy as np
 
-from ..kernels.terms.simple import inertia_value
+from ..kernels.terms import all_terms as terms_kernels
+from ..kernels.terms.simple import inertia_gradient, inertia_value, lumped_mass_diagonal
 from .base import StepContext, Triplets
 
 
@@ -19,6 +20,7 @@ class Inertia(Struct, frozen=True, eq=False, dict=True):
 
     mass: np.ndarray  # (n,) lumped masses
     name: ClassVar[str] = "inertia"
+    kind: ClassVar[int] = terms_kernels.INERTIA  # its data in the all-terms kernels
     constant_pattern: ClassVar[bool] = True  # the same triplet index arrays on every call
 
     def __post_init__(self):
@@ -29,13 +31,13 @@ class Inertia(Struct, frozen=True, eq=False, dict=True):
     @cached_property
     def _hessian(self) -> Triplets:
         dofs = np.arange(3 * len(self.mass), dtype=np.int32)  # as elasticity's: one variant
-        return Triplets(dofs, dofs, np.repeat(self.mass, 3))
+        return Triplets(dofs, dofs, lumped_mass_diagonal(self.mass))
 
     def value(self, x, ctx: StepContext):
         return inertia_value(self.mass, x, ctx.x_tilde)
 
     def gradient(self, x, ctx: StepContext):
-        return (self.mass[:, None] * (x - ctx.x_tilde)).reshape(-1)
+        return inertia_gradient(self.mass, x, ctx.x_tilde)
 
     def hessian(self, x, ctx: StepContext):
         return self._hessian

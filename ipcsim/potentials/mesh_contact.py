@@ -16,6 +16,7 @@ from typing import ClassVar
 from msgspec import Struct
 import numpy as np
 
+from ..kernels.terms import all_terms as terms_kernels
 from ..kernels.contact import pair_barrier as kb
 from .base import BlockHessian, StepContext, Triplets
 
@@ -25,6 +26,7 @@ class MeshContact(Struct, frozen=True, eq=False):
 
     dhat: float
     name: ClassVar[str] = "mesh contact"
+    kind: ClassVar[int] = terms_kernels.MESH_CONTACT  # its data in the all-terms kernels
     constant_pattern: ClassVar[bool] = False
 
     @property

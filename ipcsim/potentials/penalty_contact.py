@@ -17,6 +17,7 @@ from typing import ClassVar
 
 from msgspec import Struct
 
+from ..kernels.terms import all_terms as terms_kernels
 from ..contact.planes import Planes
 from ..kernels.contact import penalty as kp
 from .base import StepContext, Triplets
@@ -29,6 +30,7 @@ class PenaltyPlaneContact(Struct, frozen=True, eq=False):
     dhat: float
     stiffness: float
     name: ClassVar[str] = "plane penalty contact"
+    kind: ClassVar[int] = terms_kernels.PLANE_PENALTY  # its data in the all-terms kernels
     constant_pattern: ClassVar[bool] = False
 
     def _args(self):
@@ -54,6 +56,7 @@ class PenaltyMeshContact(Struct, frozen=True, eq=False):
     dhat: float
     stiffness: float
     name: ClassVar[str] = "mesh penalty contact"
+    kind: ClassVar[int] = terms_kernels.MESH_PENALTY  # its data in the all-terms kernels
     constant_pattern: ClassVar[bool] = False
 
     def value(self, x, ctx: StepContext):

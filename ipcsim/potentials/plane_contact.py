@@ -8,6 +8,7 @@ from typing import ClassVar
 
 from msgspec import Struct
 
+from ..kernels.terms import all_terms as terms_kernels
 from ..contact.planes import Planes
 from ..kernels.contact import plane_barrier as k
 from .base import StepContext, Triplets
@@ -22,6 +23,7 @@ class PlaneContact(Struct, frozen=True, eq=False):
     planes: Planes
     dhat: float
     name: ClassVar[str] = "plane contact"
+    kind: ClassVar[int] = terms_kernels.PLANE_CONTACT  # its data in the all-terms kernels
     constant_pattern: ClassVar[bool] = False
 
     @property

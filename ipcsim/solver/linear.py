@@ -23,8 +23,8 @@ the floor of a Newton iteration, so the fastest installed factorisation is the d
 ``DENSE_UP_TO`` DOFs (the tutorial scenes' two cubes: 48) get ``DenseSolver`` instead: a
 dense Cholesky factor (a compiled kernel), 1.5× faster there than CHOLMOD's call, whose
 setup outweighs the arithmetic at that size (and kvxopt is then never imported). Where
-Newton's iterations run as one compiled call (a fused small scene), up to
-``DENSE_WITH_COMPILED_NEWTON_UP_TO`` DOFs.
+the terms' Hessians are added into the dense matrix in one call (every scene but the
+baselines' and warm start 5's), up to ``DENSE_HESSIAN_UP_TO`` DOFs.
 
 Every backend accepts the full symmetric matrix as CSC or CSR (for a symmetric matrix the
 two share their arrays) and reads only its lower triangle (= upper triangle in CSR, which
@@ -489,10 +489,9 @@ SOLVERS = {"cholmod": CholmodSolver, "pardiso": PardisoSolver, "scipy": ScipySol
 AUTO_ORDER = ("cholmod", "scipy")
 # "auto" factors systems of at most this many DOFs dense (DenseSolver)
 DENSE_UP_TO = 60
-# ... and of at most this many where Newton's iterations run compiled (the fused terms of
-# a small scene): the Python they save outweighs the dense factor's n³ up to about 290
-# DOFs per iteration (docs/linear-solvers.md)
-DENSE_WITH_COMPILED_NEWTON_UP_TO = 240
+# ... and of at most this many where the terms' Hessians go into the dense matrix in one
+# call: the Python that saves outweighs the dense factor's n³ (docs/linear-solvers.md)
+DENSE_HESSIAN_UP_TO = 240
 # the original's names and other spellings
 ALIASES = {"eigen": "scipy", "amgcl": "scipy", "superlu": "scipy", "mkl": "pardiso"}
 

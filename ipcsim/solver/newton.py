@@ -1,74 +1,53 @@
-"""Projected Newton with a feasibility-filtered backtracking line search.
+"""Projected Newton with a feasibility-filtered backtracking line search (IPC, Algorithm 1).
 
-One call minimises an objective: anything with ``kinematic`` (n,) and ``target`` (n, 3),
-``evaluate(x, order) -> Evaluation`` (E, ∇E, PSD Hessian triplets), ``max_step(x, p) ->
-LineSearch`` (the feasible α and the energy along p), ``resolved(x, p) -> bool``, and
-``follow_up(x, p, first) -> x``, ``prescribed_complete()`` and ``revision`` for the pull
-of prescribed vertices that the first iteration could not take to their targets
-(``potentials/boundary_pull.py``: they become free DOFs, pulled by a stiff spring, and
-the step converges only once they are there; ``follow_up`` may place them there and
-returns the x Newton goes on from; ``revision`` changes with the potential).
-Kinematic DOFs are eliminated: their part of the search direction is the remaining
-prescribed motion p_k = target − x_k, and the free part solves
+One call minimises a time step's problem from x₀; each iteration is
 
-    H_ff p_f = −g_f − H_fk p_k
+    evaluate   E, ∇E and the PSD-projected Hessian at x (κ adapted there)
+    direction  H_ff p_f = −g_f − H_fk p_k                     (assemble, solve)
+    stop?      ‖p‖∞ < tol, the prescribed motion complete, the terms' own test
+    CCD bound  the largest α that keeps x + αp free of intersections and inversions
+    backtrack  α halved until E(x + αp) < E(x)
+    follow up  the pull of prescribed vertices that the first iteration left behind
 
-(the Newton step of the constrained problem from a point that has not reached the
-constraint yet). Every step is first bounded by ``max_step`` (CCD and the inversion bound),
-so no iterate ever intersects or inverts. While prescribed motion remains, the largest
-feasible step is taken (the energy of an unfinished constraint is not comparable); once
-the kinematic DOFs sit on their targets, α is halved until the energy decreases.
+Newton knows nothing of contact. It sees the problem through a small protocol
+(``potentials/step_problem.py``): ``kinematic`` (n,) and ``target`` (n, 3);
+``start(x0)`` → a point; ``evaluate(point, order)`` → (the problem at the adapted κ,
+an ``Evaluation``: E, ∇E, Hessian triplets, contacts); ``line_search(point, p,
+remaining, complete, halvings)`` → a ``LineStep`` (the next point, α, E, failed, E(x));
+``resolved(x, p)``; ``prescribed_complete()``; ``follow_up(point, p, first)`` → (problem,
+point); ``nonfinite_terms(x, p)`` to name a culprit. Every value passes through the loop
+and comes back new; nothing is written into the problem.
+
+Kinematic DOFs are eliminated: their part of the direction is the remaining prescribed
+motion p_k = target − x_k (the Newton step of the constrained problem from a point that
+has not reached the constraint yet), set to 0 once 99.9 % of it is done. While
+prescribed motion remains, the largest feasible step is taken (the energy of an
+unfinished constraint is not comparable); once the kinematic DOFs sit on their targets,
+α is halved until the energy decreases.
 
 Stopping rule, as the original: ‖p‖∞ < tol (absolute, tol·l·h) with the motion complete,
-and the objective's own test of p (``resolved``: friction's static ramp); the
-converged direction is still taken (it costs no solve), so a step always moves by at least
-one Newton direction and a slow body does not stall below the tolerance.
-
-On a small scene (a dense system, the terms fused) the iterations run as one compiled
-call (``kernels/terms/newton_loop.py``): the loop of ``solve`` step by step, bit for bit. A
-pull of prescribed vertices is decided, tightened and ended by Python between such
-calls, one iteration each while it lasts. The loop here is the reference the kernel
-mirrors, and takes over where an iteration would raise (Python names the culprit).
+and the problem's own test of p (friction's static ramp); the converged direction is
+still taken (it costs no solve), so a step always moves by at least one Newton direction
+and a slow body does not stall below the tolerance.
 """
 
 from __future__ import annotations
-
-import math
 
 from msgspec import Struct, field
 from msgspec.structs import replace
 import numpy as np
 
 from ..errors import NonFiniteError, SolverError
-from ..kernels.terms.newton_loop import (CONVERGED, FOLLOW_UP, ITERATION_CAP,
-                                    LINE_SEARCH_FAILED)
 from ..kernels.algebra.linalg import dot
 from ..records import same_bits
 from .assembly import Assembler, DenseAssembler
 from .timing import PhaseTimer
 
 
-_ROW_KEYS = ("iteration", "step_inf_norm", "tolerance", "gradient_norm", "kappa",
-             "residual_ratio", "alpha", "energy")  # the compiled iterations' row columns
-
-
 def _norm(v: np.ndarray) -> float:
-    """‖v‖₂ summed in index order, as the compiled iterations sum it."""
+    """‖v‖₂ summed in index order."""
     v = np.ascontiguousarray(v, dtype=np.float64)
     return float(np.sqrt(dot(v, v)))
-
-
-class _System(Struct, frozen=True, eq=False):
-    """The Newton system H_ff p_f = rhs over the free DOFs (A, rhs, the coupling H_fk p_k)
-    and the direction p (3n,) with its prescribed part filled in."""
-
-    A: object
-    rhs: np.ndarray
-    coupling: np.ndarray
-    p: np.ndarray
-    remaining: float  # the prescribed motion still to go, ‖p_k‖∞
-    free_dofs: np.ndarray
-    n_free: int
 
 
 class _Dofs(Struct, frozen=True, eq=False):
@@ -82,9 +61,22 @@ class _Dofs(Struct, frozen=True, eq=False):
     n_free: int
 
 
+class _System(Struct, frozen=True, eq=False):
+    """The Newton system H_ff p_f = rhs over the free DOFs (A, rhs, the coupling H_fk p_k)
+    and the direction p (3n,) with its prescribed part filled in."""
+
+    A: object
+    rhs: np.ndarray
+    coupling: np.ndarray
+    p: np.ndarray
+    remaining: float  # the prescribed motion still to go, ‖p_k‖∞
+    dofs: _Dofs
+
+
 class NewtonResult(Struct, frozen=True):
     """What one minimisation did. ``rows`` holds a newton.csv row per iteration;
-    ``final`` is the objective's evaluation at ``x`` (energy and contacts)."""
+    ``final`` is the problem's evaluation at ``x`` (energy and contacts), and ``problem``
+    the problem as the minimisation left it (κ, the pull's end)."""
 
     x: np.ndarray
     final: object
@@ -95,6 +87,12 @@ class NewtonResult(Struct, frozen=True):
     kinematic_complete: bool = True
     line_search_failures: int = 0
     rows: tuple[dict, ...] = field(default=())
+    problem: object = None
+
+    @property
+    def point(self):
+        """Where the minimisation ended, with what is known there."""
+        return self.final.point
 
     def then(self, later: "NewtonResult") -> "NewtonResult":
         """This minimisation followed by ``later`` from where it ended (a friction update)."""
@@ -121,11 +119,13 @@ class NewtonSolver:
     def __init__(self, settings, linear_solver, timer: PhaseTimer | None = None,
                  observer=None):
         """``settings``: the model's ``SolverSettings``; ``observer(row)``, when given,
-        receives each newton.csv row once it is complete (``ipcsim run -v``)."""
+        receives each newton.csv row once it is complete (``ipcsim run -v``); ``watch``,
+        when set, receives every evaluation (tests watch the iterates so)."""
         self.settings = settings
         self.linear_solver = linear_solver
         self.timer = timer or PhaseTimer()
         self.observer = observer
+        self.watch = None
         # a solver that factors dense arrays (small systems) gets the matrix as one
         self.assembler = DenseAssembler() if getattr(linear_solver, "dense", False) \
             else Assembler()
@@ -135,7 +135,7 @@ class NewtonSolver:
         """The DOF masks of ``kinematic``, the same arrays while it is one of the last two
         masks seen (the same array, or equal): a step that pulls its prescribed vertices
         goes back and forth between two masks, and the assembler keeps its pattern per
-        free-index array. An objective's mask is a value: a changed mask is a new array."""
+        free-index array. A problem's mask is a value: a changed mask is a new array."""
         for dofs in self._recent:
             if dofs.kinematic is kinematic:
                 return dofs
@@ -153,232 +153,120 @@ class NewtonSolver:
         self._recent = [dofs, *self._recent[:1]]
         return dofs
 
-    def solve(self, objective, x0: np.ndarray, tol: float) -> NewtonResult:
-        """Minimise ``objective`` from ``x0`` (n, 3) until ‖p‖∞ < tol with the prescribed
-        motion complete, or the iteration cap."""
-        x = x0.copy()
-        kin_dofs = self._dofs(objective.kinematic).prescribed
-        target = objective.target.reshape(-1)
-        run = _Progress(np.abs(target[kin_dofs] - x.reshape(-1)[kin_dofs]).max(initial=0.0),
-                        tol)
+    def solve(self, problem, point, tol: float) -> NewtonResult:
+        """Minimise ``problem`` from ``point`` (``problem.start(x0)``) until ‖p‖∞ < tol
+        with the prescribed motion complete, or the iteration cap."""
+        kin_dofs = self._dofs(problem.kinematic).prescribed
+        target, x0 = problem.target.reshape(-1), point.x.reshape(-1)
+        run = _Progress(np.abs(target[kin_dofs] - x0[kin_dofs]).max(initial=0.0), tol)
         run.kinematic_complete = run.prescribed == 0.0
-        energy = None  # E(x), known after a line search
-        potential = None  # (κ, the objective's revision) of that energy
-        first = 0
-        if isinstance(self.assembler, DenseAssembler) and getattr(objective,
-                                                                   "compiles_newton", False):
-            x, first, energy, potential, finished = self._compiled(objective, x, run)
-            if finished is not None:
-                return finished
-        for it in range(first, self.settings.max_newton_iterations):  # the loop as written
-            ev = objective.evaluate(x, 2)
+        for it in range(self.settings.max_newton_iterations):
+            problem, ev = self._evaluate(problem, point, 2)
+            point = ev.point
             self._complete_last_row(run, ev.contacts)
-            if (ev.kappa, objective.revision) != potential:
-                energy = None  # the potential itself changed (κ, a pull)
-                potential = (ev.kappa, objective.revision)
             if not np.isfinite(ev.gradient).all():
-                raise NonFiniteError("gradient", objective.nonfinite_terms(x), it)
-            system = self._system(objective, x, ev, run)
+                raise NonFiniteError("gradient", problem.nonfinite_terms(point.x), it)
+            system = self._system(problem, ev, run)
             ev = ev.without_hessian()  # its triplets go before the factorisation
-            p, remaining = self._direction(objective, x, system, run, it)
+            p, remaining = self._direction(problem, point.x, system, run, it)
             del system  # the matrix too goes before the line search
-            free = self._dofs(objective.kinematic).free
+            free = self._dofs(problem.kinematic).free
             step_norm = np.abs(p[free]).max(initial=0.0)
             row = {"iteration": it, "step_inf_norm": step_norm, "tolerance": tol,
-                   "gradient_norm": _norm(ev.gradient[free]),
-                   "kappa": ev.kappa,
+                   "gradient_norm": _norm(ev.gradient[free]), "kappa": ev.kappa,
                    "residual_ratio": step_norm / tol if tol > 0 else np.nan}
             converged = (run.kinematic_complete and step_norm < tol
-                         and objective.prescribed_complete() and objective.resolved(x, p))
-            if converged and step_norm == 0.0:
-                alpha = 0.0  # nothing left to do
-                energy = ev.energy if energy is None else energy
+                         and problem.prescribed_complete() and problem.resolved(point.x, p))
+            if converged and step_norm == 0.0:  # nothing left to do
+                known = problem.energy_known(point)
+                run.rows.append({**row, "alpha": 0.0,
+                                 "energy": ev.energy if known is None else known})
             else:
                 # a converged direction is still taken: it is nearly free (no solve) and,
                 # at a step's first iteration, it is the whole motion of a slow body
-                x_new, alpha, energy, failed = self._line_search(objective, x, p, remaining,
-                                                                 energy, run, it)
-                if failed:
+                step = self._line_search(problem, point, p, remaining, run, it)
+                run.rows.append({**row, "alpha": step.alpha, "energy": step.energy})
+                point = step.point
+                if step.failed:
                     # no step along p lowers E in floating point: x is a minimiser to
                     # machine precision (typical when tol sits near round-off), unless
                     # the step is far above the tolerance
                     run.line_search_failures += 1
                     run.min_alpha = 0.0
                     run.iterations = it + 1
-                    run.rows.append({**row, "alpha": 0.0, "energy": energy})
-                    return self._finish(objective, x, run,
-                                        converged=step_norm < self.settings
-                                        .roundoff_tolerance_factor * tol)
-                x = x_new
-                run.min_alpha = min(run.min_alpha, alpha)
-            run.rows.append({**row, "alpha": alpha, "energy": energy})
+                    return self._finish(problem, point, run, converged=step_norm < self
+                                        .settings.roundoff_tolerance_factor * tol)
+                run.min_alpha = min(run.min_alpha, step.alpha)
             if converged:
                 run.iterations = it + 1
-                return self._finish(objective, x, run, converged=True)
-            x = objective.follow_up(x, p, first=it == 0)  # may pull prescribed vertices
+                return self._finish(problem, point, run, converged=True)
+            problem, point = problem.follow_up(point, p, first=it == 0)  # may pull
         run.iterations = self.settings.max_newton_iterations
-        return self._finish(objective, x, run, converged=False, hit_cap=True)
+        return self._finish(problem, point, run, converged=False, hit_cap=True)
 
-    def _compiled(self, objective, x, run: _Progress):
-        """The iterations run as one compiled call (``StepObjective.newton_iterations``)
-        for as long as the objective allows: (x, the next iteration's number, E(x) or
-        None with its (κ, revision), the result when the solve is finished there, else
-        None: the loop of ``solve`` goes on from that iteration)."""
-        settings = self.settings
-        cap, first = settings.max_newton_iterations, 0
-        energy = None
-        while True:
-            if run.rows and "contacts_total" not in run.rows[-1]:
-                # the row before ends where these iterations start
-                self._complete_last_row(run, objective.contacts(x))
-            with self.timer("newton"):
-                out = objective.newton_iterations(
-                    x, first, cap, self._dofs(objective.kinematic), run.prescribed, energy,
-                    (run.min_alpha, run.kinematic_complete),
-                    (run.tol, settings.max_halvings, settings.kinematic_completion))
-            self._add_rows(run, out.rows, out.ended_at)
-            x, first = out.x, out.next
-            energy = None if math.isnan(out.state[0]) else float(out.state[0])
-            potential = (objective.stiffness.kappa, objective.revision)
-            run.min_alpha, run.kinematic_complete = float(out.state[2]), bool(out.state[3])
-            status = out.status
-            if status == CONVERGED:
-                run.iterations = first
-                return x, first, energy, potential, self._finish(objective, x, run,
-                                                                 converged=True)
-            if status == LINE_SEARCH_FAILED:
-                run.line_search_failures += 1
-                run.min_alpha = 0.0
-                run.iterations = first
-                step_norm = run.rows[-1]["step_inf_norm"]
-                return x, first, energy, potential, self._finish(
-                    objective, x, run,
-                    converged=step_norm < settings.roundoff_tolerance_factor * run.tol)
-            if status == ITERATION_CAP:
-                run.iterations = cap
-                return x, first, energy, potential, self._finish(
-                    objective, x, run, converged=False, hit_cap=True)
-            if status == FOLLOW_UP:  # after the step's first iteration, or during a pull
-                revision = objective.revision
-                x = objective.follow_up(x, out.p, first=first == 1)
-                if objective.revision != revision:
-                    energy = None  # a pull began, changed or ended: another potential
-                if objective.compiles_newton:
-                    continue
-            return x, first, energy, potential, None  # HAND_BACK
+    def _evaluate(self, problem, point, order: int):
+        """The problem's evaluation at the point; the previous row ends there."""
+        problem, ev = problem.evaluate(point, order)
+        if self.watch is not None:
+            self.watch(ev.x, ev)
+        return problem, ev
 
-    def _add_rows(self, run: _Progress, rows: np.ndarray, ended_at: tuple) -> None:
-        """The compiled iterations' rows as ``solve`` writes them; each row but the last
-        is complete (its contacts are the next iterate's) and goes to the observer."""
-        for values, contacts in zip(rows.tolist(), ended_at):
-            row = dict(zip(_ROW_KEYS, values))
-            row["iteration"] = int(row["iteration"])
-            run.rows.append(row)
-            if contacts is not None:
-                self._complete_last_row(run, contacts)
-
-    def _system(self, objective, x, ev, run: _Progress) -> "_System":
+    def _system(self, problem, ev, run: _Progress) -> "_System":
         """The Newton system over the free DOFs at x (assembled from ev's Hessian) and the
-        prescribed part of the direction: p_k = target − x_k, the motion still remaining."""
-        dofs = self._dofs(objective.kinematic)
-        kin_dofs, free_dofs = dofs.prescribed, dofs.free
-        free_index, n_free = dofs.index, dofs.n_free  # DOF -> free DOF number, −1 if kinematic
-        p = np.zeros(x.size)
-        p_kin = objective.target.reshape(-1)[kin_dofs] - x.reshape(-1)[kin_dofs]
+        prescribed part of the direction: p_k = target − x_k, the motion still remaining
+        (0 once 99.9 % of it is done)."""
+        dofs = self._dofs(problem.kinematic)
+        p = np.zeros(ev.x.size)
+        p_kin = (problem.target.reshape(-1)[dofs.prescribed]
+                 - ev.x.reshape(-1)[dofs.prescribed])
         remaining = np.abs(p_kin).max(initial=0.0)
         if remaining <= self.settings.kinematic_completion * run.prescribed:
             p_kin[:] = 0.0  # done: stop pushing the last 0.1 %
             remaining = 0.0
         run.kinematic_complete = remaining == 0.0
-        p[kin_dofs] = p_kin
-        static, dynamic = ev.hessian
+        p[dofs.prescribed] = p_kin
         with self.timer("assembly"):
-            A, coupling = self.assembler.assemble(static, dynamic, free_index, n_free, p)
-            rhs = -ev.gradient[free_dofs] - coupling
-        return _System(A, rhs, coupling, p, remaining, free_dofs, n_free)
+            A, coupling = self.assembler.assemble(*ev.hessian, dofs.index, dofs.n_free, p)
+            rhs = -ev.gradient[dofs.free] - coupling
+        return _System(A, rhs, coupling, p, remaining, dofs)
 
-    def _direction(self, objective, x, system: "_System", run: _Progress, it: int):
-        """The Newton direction p (3n,) at x, solving the system, and the prescribed
-        motion still remaining."""
-        p, free_dofs = system.p, system.free_dofs
+    def _direction(self, problem, x, system: "_System", run: _Progress, it: int):
+        """The Newton direction p (3n,) at x, its free part solving
+        H_ff p_f = −g_f − H_fk p_k, and the prescribed motion still remaining."""
+        p, dofs = system.p, system.dofs
         with self.timer("solve"):
             try:
-                p[free_dofs] = (self.linear_solver.solve(system.A, system.rhs) if system.n_free
-                                else 0.0)
+                p[dofs.free] = (self.linear_solver.solve(system.A, system.rhs)
+                                if dofs.n_free else 0.0)
             except SolverError:
-                bad = objective.nonfinite_terms(x)
+                bad = problem.nonfinite_terms(x)
                 if bad:  # a NaN in the matrix is the cause: name its term
                     raise NonFiniteError("Hessian", bad, it) from None
                 raise
         if not np.isfinite(p).all():
-            raise NonFiniteError("Newton direction", objective.nonfinite_terms(x), it)
-        if system.remaining > 0.0 and system.n_free and np.abs(p[free_dofs]).max() < run.tol:
+            raise NonFiniteError("Newton direction", problem.nonfinite_terms(x), it)
+        if system.remaining > 0.0 and dofs.n_free and np.abs(p[dofs.free]).max() < run.tol:
             # the free DOFs are converged, the prescribed motion is not: follow it with
             # the free DOFs' linear response alone, H_ff p_f = −H_fk p_k. The free part's
             # own residual (below tol) would otherwise move them far more than the small
             # rest of the motion does, and CCD would cut every step to a part of it.
             with self.timer("solve"):
-                p[free_dofs] = self.linear_solver.solve_again(-system.coupling)
+                p[dofs.free] = self.linear_solver.solve_again(-system.coupling)
         return p, system.remaining
 
-    def _line_search(self, objective, x, p, remaining, energy, run: _Progress, it: int):
-        """(x_new, α, E(x_new), failed): the feasible step along p, halved until E
-        decreases once the prescribed motion is complete."""
-        fused = objective.line_search(x, p, remaining, energy, run.kinematic_complete,
-                                      self.settings.max_halvings)
-        if fused is not None:  # the same search in one call (a small scene)
-            return self._checked(objective, x, p, fused, run, it)
-        line = objective.max_step(x, p)
-        alpha = line.max_alpha
-        if not alpha >= 0.0:  # NaN: a bound (CCD, inversion) saw a non-finite input
-            raise NonFiniteError("step bound", objective.nonfinite_terms(x, p), it)
+    def _line_search(self, problem, point, p, remaining, run: _Progress, it: int):
+        """The problem's line search along p, with its checks: a NaN bound or energy
+        names the term that is not finite."""
+        step = problem.line_search(point, p, remaining, run.kinematic_complete,
+                                   self.settings.max_halvings)
+        if not step.alpha >= 0.0:  # NaN: a bound (CCD, inversion) saw a non-finite input
+            raise NonFiniteError("step bound", problem.nonfinite_terms(point.x, p), it)
         if run.kinematic_complete:
-            alpha, failed, energy = self._backtrack(line, alpha, energy, it)
-            if failed:
-                return x, 0.0, energy, True
-        if alpha == 1.0 and remaining > 0.0:
-            x_new = line.end_on_targets()  # land exactly on the targets
-        else:
-            x_new = line.point(alpha)
-        if not run.kinematic_complete:
-            energy = line.energy_at(x_new)
-            if not np.isfinite(energy):
-                raise NonFiniteError("energy", objective.nonfinite_terms(x_new), it)
-        return x_new, alpha, energy, False
-
-    def _checked(self, objective, x, p, found, run: _Progress, it: int):
-        """``_line_search``'s result from a fused search, with its checks."""
-        if not found.alpha >= 0.0:
-            raise NonFiniteError("step bound", objective.nonfinite_terms(x, p), it)
-        if run.kinematic_complete:
-            if not np.isfinite(found.e0):
-                raise NonFiniteError("energy", objective.nonfinite_terms(x), it)
-            if found.failed:
-                return x, 0.0, found.e0, True
-        elif not np.isfinite(found.energy):
-            raise NonFiniteError("energy", objective.nonfinite_terms(found.x_new), it)
-        return found.x_new, found.alpha, found.energy, False
-
-    def _backtrack(self, line, alpha, e0, it: int):
-        """Halve α until E(x + αp) < E(x). Returns (α, True if it gave up, E at the point
-        kept: x + αp, or x itself when it gave up). Equal energies count as no progress:
-        they only occur once E has reached round-off. It gives up after ``max_halvings``
-        or once a step that did not lower E was within round-off of x
-        (``LineSearch.below_roundoff``)."""
-        if e0 is None:
-            e0 = line.energy(0.0)
-        if not np.isfinite(e0):
-            raise NonFiniteError("energy", line.objective.nonfinite_terms(line.x), it)
-        for _ in range(self.settings.max_halvings):
-            e = line.energy(alpha)
-            if e < e0:  # a finite e0 and e < e0: e is finite too
-                return alpha, False, e
-            if line.below_roundoff(alpha):
-                # shorter steps only move x by less than its own round-off: give up (a
-                # converged direction of 1e-16 in free flight took all max_halvings)
-                break
-            alpha *= 0.5
-        return 0.0, True, e0
+            if not np.isfinite(step.e0):
+                raise NonFiniteError("energy", problem.nonfinite_terms(point.x), it)
+        elif not np.isfinite(step.energy):
+            raise NonFiniteError("energy", problem.nonfinite_terms(step.point.x), it)
+        return step
 
     def _complete_last_row(self, run: _Progress, contacts) -> None:
         """The previous iteration's row gets the contacts at the iterate it ended at."""
@@ -387,14 +275,14 @@ class NewtonSolver:
             if self.observer is not None:
                 self.observer(run.rows[-1])
 
-    def _finish(self, objective, x, run: _Progress, converged: bool,
+    def _finish(self, problem, point, run: _Progress, converged: bool,
                 hit_cap: bool = False) -> NewtonResult:
-        final = objective.evaluate(x, 0)
+        problem, final = self._evaluate(problem, point, 0)
         if not np.isfinite(final.energy):
-            raise NonFiniteError("energy", objective.nonfinite_terms(x), run.iterations)
+            raise NonFiniteError("energy", problem.nonfinite_terms(point.x), run.iterations)
         self._complete_last_row(run, final.contacts)
-        return NewtonResult(x=x, final=final, iterations=run.iterations, converged=converged,
-                            hit_iteration_cap=hit_cap, min_alpha=run.min_alpha,
-                            kinematic_complete=run.kinematic_complete,
+        return NewtonResult(x=final.x, final=final, iterations=run.iterations,
+                            converged=converged, hit_iteration_cap=hit_cap,
+                            min_alpha=run.min_alpha, kinematic_complete=run.kinematic_complete,
                             line_search_failures=run.line_search_failures,
-                            rows=tuple(run.rows))
+                            rows=tuple(run.rows), problem=problem)

@@ -12,7 +12,7 @@ from benchmarks import run_phases
 TOP = ("interpreter start and exit", "imports", "main")
 UNDER_MAIN = ("build", "output", "step loop", "run.json")
 UNDER_LOOP = ("steps", "frames", "logs", "checkpoints")
-UNDER_STEPS = ("the step's objective", "final evaluation", "rest (Python)")
+UNDER_STEPS = ("the step's problem", "final evaluation", "rest (Python)")
 
 
 def test_every_phase_of_a_run_is_timed_and_they_add_up(repo_root, tmp_path, capsys):

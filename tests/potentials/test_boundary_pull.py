@@ -6,7 +6,6 @@ iteration could not take the prescribed vertices to their targets."""
 
 from __future__ import annotations
 
-from msgspec.structs import replace
 import numpy as np
 import pytest
 from generated import write_box_msh
@@ -16,6 +15,7 @@ from ipcsim.kernels.algebra.linalg import tet_signed_volumes
 from ipcsim.model.builder import build_model
 from ipcsim.potentials.boundary_pull import MAX_RHO, START_RHO, BoundaryPull, PullSchedule
 from ipcsim.scene import load_scene
+from ipcsim.potentials.step_problem import Point, StepProblem
 from ipcsim.simulation import Simulation
 
 
@@ -135,32 +135,35 @@ def press_scene(tmp_path_factory):
 
 def test_a_step_that_cannot_finish_its_prescribed_motion_at_once_pulls_the_vertices(
         press_scene):
-    """The objective's own view: after an incomplete first iteration the bodies'
+    """The problem's own view: after an incomplete first iteration the bodies'
     prescribed vertices are free DOFs with the pull in the potential; once they are at
-    their targets the pull ends and they stay there."""
+    their targets the pull ends and they stay there. Each is a new problem; the one it
+    came from is unchanged."""
     sim = Simulation(build_model(load_scene(press_scene)))
-    objective = sim.objective(sim.state)
-    ctx = objective.ctx
+    problem, start = sim.problem(sim.state)
+    ctx = problem.ctx
     kin = ctx.kinematic
-    assert kin.sum() > 0 and objective.prescribed_complete()
+    assert kin.sum() > 0 and problem.prescribed_complete()
     halfway = ctx.x_start.copy()
     halfway[kin] = 0.5 * (ctx.x_start[kin] + ctx.target[kin])
     p = np.zeros(halfway.size)
-    objective.follow_up(halfway, p, first=False)  # not the first iteration: nothing
-    assert objective.pull is None and objective.revision == 0
-    objective.follow_up(halfway, p, first=True)
-    pull = objective.pull
-    assert pull is not None and pull.rho == START_RHO and objective.revision == 1
-    assert not objective.prescribed_complete()
-    assert not objective.kinematic.any()  # every prescribed vertex here is a body's
-    assert "boundary_pull" in [t.term.name for t in objective.potential.terms]
+    same, _ = problem.follow_up(Point(halfway), p, first=False)  # not the first: nothing
+    assert same is problem
+    pulling, point = problem.follow_up(Point(halfway), p, first=True)
+    pull = pulling.pull
+    assert pull is not None and pull.rho == START_RHO and problem.pull is None
+    assert not pulling.prescribed_complete() and problem.prescribed_complete()
+    assert not pulling.kinematic.any()  # every prescribed vertex here is a body's
+    assert "boundary_pull" in [t.term.name for t in pulling.potential.terms]
+    assert point.known is None  # another potential: energies from before do not count
     there = halfway.copy()
     there[kin] = ctx.target[kin] + 1e-6  # within 0.1 % of the motion
-    objective.follow_up(there, p, first=False)
-    assert objective.pull is None and objective.prescribed_complete()
-    np.testing.assert_array_equal(objective.kinematic, kin)
-    np.testing.assert_array_equal(objective.target[kin], there[kin])
-    assert "boundary_pull" not in [t.term.name for t in objective.potential.terms]
+    done, _ = pulling.follow_up(Point(there), p, first=False)
+    assert done.pull is None and done.prescribed_complete()
+    np.testing.assert_array_equal(done.kinematic, kin)
+    np.testing.assert_array_equal(done.target[kin], there[kin])
+    assert "boundary_pull" not in [t.term.name for t in done.potential.terms]
+    np.testing.assert_array_equal(problem.target, ctx.target)  # unchanged
 
 
 def test_pulled_steps_finish_their_motion_without_intersection_or_inversion(press_scene):
@@ -184,15 +187,15 @@ def _pulling(press_scene, completion):
     """The press scene's first step with its pull started and the top face at
     ``completion`` of its motion."""
     sim = Simulation(build_model(load_scene(press_scene)))
-    objective = sim.objective(sim.state)
-    ctx = objective.ctx
+    problem, _ = sim.problem(sim.state)
+    ctx = problem.ctx
     kin = ctx.kinematic.copy()
     x = ctx.x_start.copy()
     x[kin] = 0.5 * (ctx.x_start[kin] + ctx.target[kin])
-    objective.follow_up(x, np.zeros(x.size), first=True)
-    assert objective.pull is not None
+    problem, _ = problem.follow_up(Point(x), np.zeros(x.size), first=True)
+    assert problem.pull is not None
     x[kin] = completion * ctx.target[kin] + (1.0 - completion) * ctx.x_start[kin]
-    return objective, x, kin
+    return problem, x, kin
 
 
 def test_in_the_tail_the_pulled_vertices_are_placed_on_their_targets(press_scene):
@@ -200,35 +203,27 @@ def test_in_the_tail_the_pulled_vertices_are_placed_on_their_targets(press_scene
     the rest of the way at once: the pull ends (another potential) with them exactly on
     their targets, prescribed again; the rest of x and the line searches' CCD hint are
     unchanged."""
-    objective, x, kin = _pulling(press_scene, 0.995)
-    revision = objective.revision
-    objective.last_ccd_alpha = 0.25
-    y = objective.follow_up(x, np.zeros(x.size), first=False)
-    assert objective.pull is None and objective.prescribed_complete()
-    assert objective.revision == revision + 1  # energies from before are not comparable
-    np.testing.assert_array_equal(y[kin], objective.target[kin])
+    problem, x, kin = _pulling(press_scene, 0.995)
+    done, point = problem.follow_up(Point(x, ccd_alpha=0.25), np.zeros(x.size), first=False)
+    assert done.pull is None and done.prescribed_complete()
+    y = point.x
+    np.testing.assert_array_equal(y[kin], done.target[kin])
     np.testing.assert_array_equal(y[~kin], x[~kin])
-    np.testing.assert_array_equal(objective.kinematic, kin)
-    assert "boundary_pull" not in [t.term.name for t in objective.potential.terms]
-    assert objective.last_ccd_alpha == 0.25
+    np.testing.assert_array_equal(done.kinematic, kin)
+    assert "boundary_pull" not in [t.term.name for t in done.potential.terms]
+    assert point.ccd_alpha == 0.25 and point.known is None
 
 
 def test_where_the_rest_of_the_move_is_not_free_the_multipliers_update(press_scene,
                                                                          monkeypatch):
     """If contact or inversion would stop the pulled vertices short of their targets, they
     stay pulled, and the multipliers take over the spring's force, as the original does."""
-    objective, x, kin = _pulling(press_scene, 0.995)
-    real_max_step = type(objective).max_step
-
-    def blocked(self, y, p):
-        line = real_max_step(self, y, p)
-        return replace(line, max_alpha=0.5)
-
-    monkeypatch.setattr(type(objective), "max_step", blocked)
-    before = objective.pull
-    y = objective.follow_up(x, np.zeros(x.size), first=False)
-    assert y is x and objective.pull is not None and objective.pull.lam is not None
-    assert objective.pull.rho == before.rho and before.lam is None
+    problem, x, kin = _pulling(press_scene, 0.995)
+    monkeypatch.setattr(StepProblem, "max_step", lambda self, *a, **k: (0.5, 0.5))
+    start = Point(x)
+    updated, point = problem.follow_up(start, np.zeros(x.size), first=False)
+    assert point.x is x and updated.pull is not None and updated.pull.lam is not None
+    assert updated.pull.rho == problem.pull.rho and problem.pull.lam is None
 
 
 def test_steps_whose_pulls_end_by_placement_finish_their_motion_exactly(

@@ -1,60 +1,72 @@
-"""The incremental potential's sums: term values read only when asked for, the same sums."""
+"""The incremental potential's sums: term values read only when asked for, once, and the
+weighted sums of the terms' own values."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from ipcsim.potentials.base import StepContext, Triplets
+from ipcsim.contact.planes import Planes
+from ipcsim.kernels.terms import all_terms as kt
+from ipcsim.potentials.base import StepContext
+from ipcsim.potentials.body_force import BodyForce
 from ipcsim.potentials.incremental import IncrementalPotential, WeightedTerm
+from ipcsim.potentials.inertia import Inertia
+from ipcsim.potentials.plane_contact import PlaneContact
 
 
-class Spring:
-    """½ k ‖x − a‖², counting its value calls."""
-
-    name = "spring"
-    constant_pattern = True
-
-    def __init__(self, k: float, anchor: np.ndarray):
-        self.k, self.anchor, self.value_calls = k, anchor, 0
-
-    def value(self, x, ctx):
-        self.value_calls += 1
-        return 0.5 * self.k * float(np.sum((x - self.anchor) ** 2))
-
-    def gradient(self, x, ctx):
-        return (self.k * (x - self.anchor)).reshape(-1)
-
-    def hessian(self, x, ctx):
-        dofs = np.arange(x.size, dtype=np.int32)
-        return Triplets(dofs, dofs, np.full(x.size, self.k))
-
-
-def potential():
+def setting():
     rng = np.random.default_rng(0)
-    a, b = Spring(2.0, rng.random((4, 3))), Spring(3.0, rng.random((4, 3)))
-    return IncrementalPotential((WeightedTerm(a, 0.5), WeightedTerm(b, 1.0, barrier=True))), a, b
+    mass = rng.random(4) + 0.5
+    planes = Planes(np.arange(4, dtype=np.int64), np.zeros((1, 3)),
+                    np.array([[0.0, 1.0, 0.0]]), np.zeros(1))
+    pot = IncrementalPotential((WeightedTerm(Inertia(mass)), WeightedTerm(BodyForce(mass), 0.5),
+                                WeightedTerm(PlaneContact(planes, 0.3), barrier=True)))
+    ctx = StepContext(x_tilde=rng.random((4, 3)), acceleration=rng.random((4, 3)), dhat=0.3)
+    return pot, ctx
 
 
-def test_values_are_evaluated_when_first_read_and_once():
-    pot, a, b = potential()
-    x = np.random.default_rng(1).random((4, 3))
-    ctx = StepContext()
-    values = pot.evaluate(x, ctx, 2)
-    assert a.value_calls == b.value_calls == 0  # a Newton iterate's E comes from its line search
-    assert values.gradients is not None and values.hessians is not None
+def counting(monkeypatch) -> list:
+    calls = []
+    values = kt.term_values
+    monkeypatch.setattr(kt, "term_values", lambda *a: (calls.append(1), values(*a))[1])
+    return calls
+
+
+def test_values_are_evaluated_when_first_read_and_once(monkeypatch):
+    pot, ctx = setting()
+    x = np.random.default_rng(1).random((4, 3)) * [1.0, 0.2, 1.0] + [0.0, 0.05, 0.0]
+    calls = counting(monkeypatch)
+    values = pot.evaluate(x, ctx, pot.kernel.data(ctx), 1)
+    assert calls == [] and values.gradients is not None  # an iterate's E: its line search's
     kappa = 7.0
-    expected = 0.5 * a.value(x, ctx) + kappa * b.value(x, ctx)
-    a.value_calls = b.value_calls = 0
-    assert values.energy(kappa) == expected == pot.value(x, ctx, kappa)
-    assert values.value_of("spring") == values.values[0]
+    own = [t.term.value(x, ctx) for t in pot.terms]
+    assert own[2] > 0.0  # some vertex within d̂ of the plane
+    expected = sum(t.factor(kappa) * v for t, v in zip(pot.terms, own))
+    assert values.energy(kappa) == expected
+    assert values.value_of("body force") == own[1] == values.values[1]
     values.energy(1.0)
-    assert a.value_calls == b.value_calls == 2  # once for the sums above, once in pot.value
+    assert calls == [1]  # once for every sum above
 
 
 def test_the_values_are_those_of_the_x_evaluated_even_if_read_later():
-    pot, a, _ = potential()
-    x = np.random.default_rng(2).random((4, 3))
-    values = pot.evaluate(x, StepContext(), 1)
-    expected = a.value(x, None)
-    later = pot.evaluate(x + 1.0, StepContext(), 1)  # another point evaluated in between
+    pot, ctx = setting()
+    x = np.random.default_rng(2).random((4, 3)) + [0.0, 0.1, 0.0]
+    data = pot.kernel.data(ctx)
+    values = pot.evaluate(x, ctx, data, 1)
+    expected = pot.terms[0].term.value(x, ctx)
+    later = pot.evaluate(x + 1.0, ctx, data, 1)  # another point evaluated in between
     assert values.values[0] == expected and later.values[0] != expected
+
+
+def test_the_gradient_weighs_each_terms_own_gradient_and_splits_the_barrier():
+    pot, ctx = setting()
+    x = np.random.default_rng(3).random((4, 3)) * [1.0, 0.2, 1.0] + [0.0, 0.05, 0.0]
+    values = pot.evaluate(x, ctx, pot.kernel.data(ctx), 1)
+    own = [t.term.gradient(x, ctx) for t in pot.terms]
+    assert np.abs(own[2]).max() > 0.0
+    kappa = 3.0
+    np.testing.assert_array_equal(values.gradient(kappa),
+                                  own[0] + 0.5 * own[1] + kappa * own[2])
+    barrier, rest = values.split_gradient()
+    np.testing.assert_array_equal(barrier, 0.0 + own[2])
+    np.testing.assert_array_equal(rest, own[0] + 0.5 * own[1])

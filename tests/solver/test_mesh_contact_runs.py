@@ -78,8 +78,8 @@ def test_the_contact_hessian_is_gone_before_the_factorisation(tmp_path, cube_mes
     scene = _scene(tmp_path, cube_mesh, f"{cube_mesh} 0.01 0.205 0.005  0 20 0  1 1 1\n"
                                         f"{cube_mesh} 0 0.001 0  0 0 0  1 1 1",
                    "stiffness 1e7 0.4\n")
-    # the sparse path: with the compiled iterations, 162 DOFs would be factored dense
-    monkeypatch.setattr("ipcsim.simulation.newton_available", lambda: False)
+    # the sparse path: 162 DOFs would be factored dense
+    monkeypatch.setattr("ipcsim.simulation.DENSE_HESSIAN_UP_TO", 0)
     sim = Simulation(build_model(load_scene(scene)))
     held = []  # weak references to the last evaluation's contact triplets
 

@@ -89,11 +89,11 @@ def test_exactly_convex_terms_have_the_finite_difference_hessian(sim, name):
 def test_incremental_potential_gradient_and_psd_hessian(sim):
     s, x, ctx = sim
     kappa = s.state.kappa
-    values = s.potential.evaluate(x, ctx, 2)
-    g = values.gradient(kappa)
-    fd = _fd_gradient(lambda y: s.potential.value(y, ctx, kappa), x, 1e-7)
+    data = s.potential.kernel.data(ctx)
+    g = s.potential.evaluate(x, ctx, data, 1).gradient(kappa)
+    fd = _fd_gradient(lambda y: s.potential.evaluate(y, ctx, data).energy(kappa), x, 1e-7)
     np.testing.assert_allclose(g, fd, rtol=1e-5, atol=1e-6 * np.abs(fd).max())
-    static, dynamic = values.hessian(kappa)
+    static, dynamic = s.potential.hessian(x, ctx, data, kappa, dense=False)
     H = Triplets.concat(static + dynamic).tocsr(x.size).toarray()
     assert np.allclose(H, H.T)
     assert np.linalg.eigvalsh(H).min() > 0  # PSD local blocks + mass: positive definite

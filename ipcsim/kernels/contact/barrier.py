@@ -70,10 +70,3 @@ def balanced_stiffness(g_barrier, g_rest, kappa_min, kappa_max):
     if kappa > kappa_max:
         return kappa_max
     return kappa
-
-
-@njit(cache=True)
-def stiffness_doubles(last_d2, d2, eps_sq):
-    """The original's doubling of κ: the closest contact is tighter than dTol (ε² =
-    eps_sq) and getting tighter (squared distances)."""
-    return last_d2 < eps_sq and d2 < eps_sq and d2 < last_d2

@@ -63,14 +63,14 @@ from ipcsim.compiler.jit import njit, prange
 
 from ipcsim.kernels.contact.distance import edge_edge_distance_sq as ee_distance_sq_of_points
 from ipcsim.kernels.contact.distance import point_triangle_distance_sq as pt_distance_sq_of_points
-from ipcsim.compiler.threads import running_parallel
+from ipcsim.compiler.twin import kernel
 
 DEFAULT_MIN_GAP_FRACTION = 0.1
 DEFAULT_MAX_ITERATIONS = 10_000
 _STEP_SAFETY = 1.0 - 1e-3
 _TINY_REL = 1e-12  # distances below this times the coordinate scale count as touching
 _CHUNK = 64  # queries per parallel task
-_SERIAL_BELOW = 256  # fewer queries than this run on one thread
+_SERIAL_BELOW = 256  # fewer queries than this run in one thread's loop
 
 # query state columns
 _T, _D0, _LP, _DONE, _ITERS = 0, 1, 2, 3, 4
@@ -231,46 +231,48 @@ def _init_chunk(x0, x1, stencils, n_pt, state, c):
         _init_query(x0, x1, stencils, k, k < n_pt, state)
 
 
-@njit(cache=True, parallel=True)
-def _init_parallel(x0, x1, stencils, n_pt, state):
-    for c in prange((stencils.shape[0] + _CHUNK - 1) // _CHUNK):
-        _init_chunk(x0, x1, stencils, n_pt, state, c)
+@kernel(parallel=True)
+def init_queries(x0, x1, stencils, n_pt, state):
+    """Every query's state at t = 0 (in parallel chunks when there are many: a parallel
+    launch costs more than a few queries do)."""
+    n_chunks = (stencils.shape[0] + _CHUNK - 1) // _CHUNK
+    if stencils.shape[0] < _SERIAL_BELOW:
+        for c in range(n_chunks):
+            _init_chunk(x0, x1, stencils, n_pt, state, c)
+    else:
+        for c in prange(n_chunks):
+            _init_chunk(x0, x1, stencils, n_pt, state, c)
 
 
 @njit(cache=True)
-def _init_serial(x0, x1, stencils, n_pt, state):
-    for c in range((stencils.shape[0] + _CHUNK - 1) // _CHUNK):
-        _init_chunk(x0, x1, stencils, n_pt, state, c)
-
-
-@njit(cache=True)
-def _advance_chunk(x0, x1, stencils, n_pt, state, active, params, c):
-    # params = (tmax, iterations per query, f); every query writes only its own state row
-    tmax, n_iter, f = params[0], int(params[1]), params[2]
+def _advance_chunk(x0, x1, stencils, n_pt, state, active, tmax, n_iter, f, c):
+    # every query writes only its own state row
     for i in range(c * _CHUNK, min((c + 1) * _CHUNK, active.shape[0])):
         k = active[i]
         _advance_query(x0, x1, stencils, k, k < n_pt, state, tmax, n_iter, f)
 
 
-@njit(cache=True, parallel=True)
-def _advance_parallel(x0, x1, stencils, n_pt, state, active, params):
-    for c in prange((active.shape[0] + _CHUNK - 1) // _CHUNK):
-        _advance_chunk(x0, x1, stencils, n_pt, state, active, params, c)
+@kernel(parallel=True)
+def advance_queries(x0, x1, stencils, n_pt, state, active, tmax, n_iter, f):
+    """At most ``n_iter`` ACCD steps of each ``active`` query, never past ``tmax`` (in
+    parallel chunks when there are many)."""
+    n_chunks = (active.shape[0] + _CHUNK - 1) // _CHUNK
+    if active.shape[0] < _SERIAL_BELOW:
+        for c in range(n_chunks):
+            _advance_chunk(x0, x1, stencils, n_pt, state, active, tmax, n_iter, f, c)
+    else:
+        for c in prange(n_chunks):
+            _advance_chunk(x0, x1, stencils, n_pt, state, active, tmax, n_iter, f, c)
 
 
-@njit(cache=True)
-def _advance_serial(x0, x1, stencils, n_pt, state, active, params):
-    for c in range((active.shape[0] + _CHUNK - 1) // _CHUNK):
-        _advance_chunk(x0, x1, stencils, n_pt, state, active, params, c)
-
-
-@njit(cache=True)
-def max_step_serial(x0, x1, stencils, n_pt, f, max_iterations):
-    # ccd_max_step's rounds on one thread in one call (a tiny scene sweeps its few pairs
-    # every Newton iteration: the rounds' array work in Python cost more than the queries)
+@kernel()
+def max_step(x0, x1, stencils, n_pt, f, max_iterations):
+    """The largest safe α of all queries (``ccd_max_step``): rounds of growing iteration
+    budget, each over the queries whose safe time is still below the smallest finished
+    one, so long queries only run while they could still lower the step."""
     n = stencils.shape[0]
     state = np.empty((n, 5))
-    _init_serial(x0, x1, stencils, n_pt, state)
+    init_queries(x0, x1, stencils, n_pt, state)
     active = np.empty(n, dtype=np.int64)
     alpha = 1.0
     budget = 8
@@ -287,35 +289,13 @@ def max_step_serial(x0, x1, stencils, n_pt, f, max_iterations):
         if m == 0 or spent >= max_iterations:
             break
         n_iter = min(budget, max_iterations - spent)
-        for i in range(m):
-            k = active[i]
-            _advance_query(x0, x1, stencils, k, k < n_pt, state, alpha, n_iter, f)
+        advance_queries(x0, x1, stencils, n_pt, state, active[:m], alpha, n_iter, f)
         spent += n_iter
         budget *= 4
-    for k in range(n):
+    for k in range(n):  # iteration budget spent: keep the safe time reached
         if state[k, _DONE] == 0.0 and state[k, _T] < alpha:
             alpha = state[k, _T]
     return alpha
-
-
-def _in_parallel(n_queries: int) -> bool:
-    """Many queries on more than one thread (``compiler.threads.running_parallel``): a parallel launch
-    costs more than a few queries do, and a serial run compiles no parallel variant."""
-    return running_parallel() and n_queries > _SERIAL_BELOW
-
-
-def _init(x0, x1, stencils, n_pt):
-    state = np.empty((stencils.shape[0], 5))
-    run = _init_parallel if _in_parallel(stencils.shape[0]) else _init_serial
-    run(x0, x1, stencils, n_pt, state)
-    return state
-
-
-def _advance(x0, x1, stencils, n_pt, state, active, params):
-    """Advance the ``active`` queries; params = (t_max, iterations, min gap fraction)."""
-    # a few queries run serially: a parallel launch costs more than they do
-    run = _advance_parallel if _in_parallel(active.shape[0]) else _advance_serial
-    run(x0, x1, stencils, n_pt, state, active, np.array(params, dtype=np.float64))
 
 
 def _stack_stencils(pt_pairs, ee_pairs, n_vertices):
@@ -346,11 +326,12 @@ def ccd_query_steps(x0, x1, pt_pairs, ee_pairs, min_gap_fraction=DEFAULT_MIN_GAP
     Returns ``(steps, iterations)``: PT queries first, then EE, each a float array."""
     x0, x1 = _check(x0, x1, min_gap_fraction, max_iterations)
     stencils, n_pt = _stack_stencils(pt_pairs, ee_pairs, x0.shape[0])
-    state = _init(x0, x1, stencils, n_pt)
+    state = np.empty((stencils.shape[0], 5))
+    init_queries(x0, x1, stencils, n_pt, state)
     active = np.flatnonzero(state[:, _DONE] == 0.0)
     if active.size:
-        _advance(x0, x1, stencils, n_pt, state, active,
-                 (1.0, float(max_iterations), float(min_gap_fraction)))
+        advance_queries(x0, x1, stencils, n_pt, state, active, 1.0, int(max_iterations),
+                        float(min_gap_fraction))
     return state[:, _T].copy(), state[:, _ITERS].copy()
 
 
@@ -363,32 +344,4 @@ def ccd_max_step(x0, x1, pt_pairs, ee_pairs, min_gap_fraction=DEFAULT_MIN_GAP_FR
     stencils, n_pt = _stack_stencils(pt_pairs, ee_pairs, x0.shape[0])
     if stencils.shape[0] == 0:
         return 1.0
-    f = float(min_gap_fraction)
-    if not _in_parallel(stencils.shape[0]):
-        return max_step_serial(x0, x1, stencils, n_pt, f, int(max_iterations))
-    return _max_step_rounds(x0, x1, stencils, n_pt, f, max_iterations)
-
-
-def _max_step_rounds(x0, x1, stencils, n_pt, f, max_iterations):
-    """ccd_max_step's rounds, each a kernel launch over the queries still running (the
-    parallel ones on many threads); ``max_step_serial`` runs the same rounds in one call."""
-    state = _init(x0, x1, stencils, n_pt)
-    alpha = 1.0
-    budget = 8
-    spent = 0
-    while True:
-        done = state[:, _DONE] != 0.0
-        if done.any():
-            alpha = min(alpha, float(state[done, _T].min()))
-        # a running query matters only while its safe time is below the current minimum
-        active = np.flatnonzero(~done & (state[:, _T] < alpha))
-        if active.size == 0 or spent >= max_iterations:
-            break
-        n_iter = min(budget, max_iterations - spent)
-        _advance(x0, x1, stencils, n_pt, state, active, (alpha, float(n_iter), f))
-        spent += n_iter
-        budget *= 4
-    running = state[:, _DONE] == 0.0
-    if running.any():  # iteration budget spent: keep the safe time reached
-        alpha = min(alpha, float(state[running, _T].min()))
-    return alpha
+    return max_step(x0, x1, stencils, n_pt, float(min_gap_fraction), int(max_iterations))

@@ -303,6 +303,21 @@ def classify_and_distance(x, pt_pairs, ee_pairs):
     return pt_type, pt_d2, ee_type, ee_d2
 
 
+@njit(cache=True)
+def active_pairs(pt_d2, ee_d2, s_hat):
+    """(point–triangle pairs with d² < ŝ, edge–edge pairs with d² < ŝ, the smallest d²:
+    inf without pairs)."""
+    n_pt = n_ee = 0
+    smallest = np.inf
+    for d2 in pt_d2:
+        n_pt += d2 < s_hat
+        smallest = min(smallest, d2)
+    for d2 in ee_d2:
+        n_ee += d2 < s_hat
+        smallest = min(smallest, d2)
+    return n_pt, n_ee, smallest
+
+
 @kernel()
 def near_pairs(x, pt_pairs, ee_pairs, ee_eps_x, pt_id, ee_id, inflation):
     """The pairs whose boxes at x, grown by inflation/2, overlap (the broad phase's test,

@@ -6,7 +6,7 @@
     boundary pull  Σ_k (ρ/2) m_k ‖x_k − x̂_k‖² − √m_k λ_k·(x_k − x̂_k)
 
 summed serially in vertex (element) order, so that a term called alone and the same term
-in ``fused_terms`` give the same bits.
+in ``all_terms`` give the same bits.
 """
 
 from __future__ import annotations
@@ -30,12 +30,41 @@ def inertia_value(mass, x, x_tilde):
 
 
 @njit(cache=True)
+def inertia_gradient(mass, x, x_tilde):
+    """Flat (3n,): mᵢ (xᵢ − x̃ᵢ)."""
+    g = np.empty(3 * x.shape[0])
+    for i in range(x.shape[0]):
+        for a in range(3):
+            g[3 * i + a] = mass[i] * (x[i, a] - x_tilde[i, a])
+    return g
+
+
+@njit(cache=True)
+def lumped_mass_diagonal(mass):
+    """Flat (3n,): the diagonal of the lumped mass matrix, inertia's Hessian."""
+    diagonal = np.empty(3 * mass.shape[0])
+    for t in range(diagonal.shape[0]):
+        diagonal[t] = mass[t // 3]
+    return diagonal
+
+
+@njit(cache=True)
 def body_force_value(mass, acceleration, x):
     total = 0.0
     for i in range(x.shape[0]):
         for a in range(3):
             total += mass[i] * acceleration[i, a] * x[i, a]
     return -total
+
+
+@njit(cache=True)
+def body_force_gradient(mass, acceleration):
+    """Flat (3n,): −mᵢ aᵢ (constant in x)."""
+    g = np.empty(3 * mass.shape[0])
+    for i in range(mass.shape[0]):
+        for a in range(3):
+            g[3 * i + a] = -(mass[i] * acceleration[i, a])
+    return g
 
 
 @njit(cache=True)
@@ -79,3 +108,16 @@ def pull_gradient(x, vertices, mass, target, rho, lam, has_lam):
                 gk -= math.sqrt(mass[k]) * lam[k, a]
             g[3 * v + a] = gk
     return g
+
+
+@njit(cache=True)
+def pull_hessian_diagonal(vertices, mass, rho):
+    """(DOFs (3k,), ρ m_k on each): the pull's Hessian, diagonal on the pulled vertices."""
+    k = vertices.shape[0]
+    dofs = np.empty(3 * k, dtype=np.int64)
+    diagonal = np.empty(3 * k)
+    for j in range(k):
+        for a in range(3):
+            dofs[3 * j + a] = 3 * vertices[j] + a
+            diagonal[3 * j + a] = rho * mass[j]
+    return dofs, diagonal

@@ -661,27 +661,36 @@ def test_max_step_over_batches(queries):
                     assert d >= GAP * d0, _label(name, is_pt, k)
 
 
-def test_serial_rounds_in_one_call_equal_the_launched_rounds(queries):
-    """``max_step_serial`` (the rounds inside one kernel, what a serial run calls) gives
-    bit for bit the α of ``_max_step_rounds`` (a launch per round, the parallel path), on
-    whole families, random subsets, batches of PT and EE queries, and with small iteration caps."""
+def test_the_serial_and_the_parallel_variant_give_the_same_step(queries):
+    """``max_step``'s rounds run their queries in a loop (the serial variant, and few
+    queries) or in parallel chunks (many queries on more than one thread): the same α bit
+    for bit, on whole families, random subsets, batches of PT and EE queries, and with
+    small iteration caps."""
+    from ipcsim.compiler import threads
+
     rng = np.random.default_rng(7)
     compared = 0
-    for name, is_pt, q0, q1, *_ in queries:
+    for name, is_pt, q0, q1, *_ in queries[:6]:
         n = len(q0)
         x0 = np.ascontiguousarray(q0.reshape(-1, 3))
         x1 = np.ascontiguousarray(q1.reshape(-1, 3))
         st = np.arange(4 * n, dtype=np.int64).reshape(n, 4)
-        for sub in (np.arange(n), np.sort(rng.choice(n, min(n, 9), replace=False))):
+        many = np.resize(np.arange(n), max(n, 600))  # past the serial threshold
+        for sub in (many, np.sort(rng.choice(n, min(n, 9), replace=False))):
             # EE families: their first n_pt stencils read as point-triangle queries too
             n_pt = len(sub) if is_pt else int(rng.integers(0, len(sub) + 1))
             stencils = np.ascontiguousarray(st[sub])
             for cap in (ccd.DEFAULT_MAX_ITERATIONS, 3, 40):
-                ref = ccd._max_step_rounds(x0, x1, stencils, n_pt, 0.1, cap)
-                got = ccd.max_step_serial(x0, x1, stencils, n_pt, 0.1, cap)
-                assert got == ref, (name, cap)
+                results = []
+                for parallel in (False, True):
+                    threads.run_parallel(parallel)
+                    try:
+                        results.append(ccd.max_step(x0, x1, stencils, n_pt, 0.1, cap))
+                    finally:
+                        threads.run_parallel(False)
+                assert results[0] == results[1], (name, cap)
                 compared += 1
-    assert compared > 50
+    assert compared > 20
 
 
 def test_single_query_times(queries):

@@ -1,21 +1,43 @@
-"""The line search's CCD bound (``contact.ccd.line_search_bound``): CCD first over twice
-the step's last α, then, only when nothing stops the motion there, over the whole
-direction. Both give the same safe step."""
+"""The line search's CCD bound (``kernels/terms/line_search.feasible_step``): CCD first
+over twice the step's last α, then, only when nothing stops the motion there, over the
+whole direction. Both give the same safe step."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from ipcsim.contact.ccd import line_search_bound
+from msgspec import Struct
+
+from ipcsim.contact.ccd import DEFAULT_MAX_ITERATIONS, DEFAULT_MIN_GAP_FRACTION
 from ipcsim.contact.collision_mesh import CollisionMesh
-from ipcsim.contact.collisions import build_collisions, narrowed_collisions, swept_collisions
+from ipcsim.contact.collisions import (Collisions, build_collisions, narrowed_collisions,
+                                       swept_collisions)
 from ipcsim.contact.intersection import find_intersections
+from ipcsim.kernels.terms import all_terms as kt
+from ipcsim.kernels.terms.line_search import feasible_step, snap_reach
 from ipcsim.model.builder import build_model
 from ipcsim.model.generate import box_tet_mesh, write_msh
+from ipcsim.potentials.kernel_data import NO_TERMS
 from ipcsim.scene import load_scene
 
 DHAT = 0.01
+
+
+class Bound(Struct, frozen=True, eq=False):
+    alpha: float
+    collisions: Collisions
+
+
+def line_search_bound(mesh, x, p, dhat, previous_alpha=1.0) -> Bound:
+    """The mesh's CCD bound of the direction p from x (no term bounds), and its pairs."""
+    n = len(x)
+    out = feasible_step(x, np.ascontiguousarray(p), np.zeros(kt.N_KINDS, dtype=np.bool_),
+                        NO_TERMS, mesh.kernel_arrays + (True,), (False, 0.0, 0.1),
+                        (np.zeros(n, dtype=np.bool_), np.zeros((n, 3)), 0.0),
+                        (float(dhat), float(previous_alpha), True, DEFAULT_MIN_GAP_FRACTION,
+                         DEFAULT_MAX_ITERATIONS))
+    return Bound(float(out[0]), Collisions(out[2], out[3], out[4], None, out[5], out[6]))
 
 
 @pytest.fixture(scope="module")
@@ -93,12 +115,10 @@ def test_the_set_narrowed_from_a_sweep_is_the_query_at_each_point_of_it(falling_
 
 
 def test_the_reach_holds_every_end_snapped_onto_its_target():
-    """``LineSearch.end_on_targets`` puts prescribed vertices on their targets t instead
-    of fl(x + fl(t − x)); the sweep keeps the pairs of every point within the reach of
-    that end, so the reach must bound the difference: checked on coordinates of every
+    """The line search puts prescribed vertices on their targets t instead of
+    fl(x + fl(t − x)); the sweep keeps the pairs of every point within the reach of that
+    end, so the reach must bound the difference: checked on coordinates of every
     magnitude and sign."""
-    from ipcsim.potentials.objective import snap_reach
-
     rng = np.random.default_rng(5)
     worst = 0.0
     for ex in range(-3, 4):
@@ -107,7 +127,7 @@ def test_the_reach_holds_every_end_snapped_onto_its_target():
             t = rng.normal(size=x.shape) * 10.0 ** et
             near = x + rng.normal(size=x.shape) * 1e-6 * 10.0 ** ex  # short motions too
             for target in (t, near):
-                reach = snap_reach(x, target)
+                reach = snap_reach(x, np.ones(len(x), dtype=np.bool_), target)
                 off = np.abs((x + (target - x)) - target).max()
                 assert off <= reach
                 worst = max(worst, off / reach)
@@ -120,7 +140,7 @@ def test_the_set_at_a_prescribed_motions_end_is_narrowed_from_the_sweep(tmp_path
     exactly on their targets. The collision set there is narrowed from the line search's
     sweep (no new broad phase), and it is exactly the set a fresh query finds."""
     import ipcsim
-    import ipcsim.potentials.objective as objective_module
+    import ipcsim.potentials.step_problem as step_problem
     from generated import write_box_msh
 
     write_box_msh(tmp_path / "box.msh")
@@ -129,44 +149,33 @@ def test_the_set_at_a_prescribed_motions_end_is_narrowed_from_the_sweep(tmp_path
         "box.msh 0 0 0  0 0 0  1 1 1  DBC -1 -1 -1  2 2 2  0 0.4 0  0 0 0\n"
         "box.msh 0.03 0.215 0.01  0 0 0  1 1 1\n"
         "dHatAbs 0.004\nturnOffGravity\ntime 0.04 0.01\n")
-    ends, narrowed = [], []
-    line_end = objective_module.LineSearch.end_on_targets
+    at_ends = []
+    at = step_problem.StepProblem.at
 
-    def end_on_targets(self):
-        y = line_end(self)
-        ends.append(y)
-        return y
-
-    def checked_narrowing(swept, x, dhat):
-        got = narrowed_collisions(swept, x, dhat)
-        fresh = build_collisions(got_mesh[0], x, dhat)
-        assert _rows(got.pt) == _rows(fresh.pt) and _rows(got.ee) == _rows(fresh.ee)
-        narrowed.append((x, len(fresh)))
+    def checked_at(self, point):
+        if point.swept is None or point.collisions is not None:
+            return at(self, point)
+        got = at(self, point)
+        fresh = build_collisions(self.contact.mesh, point.x, self.contact.dhat)
+        assert _rows(got.collisions.pt) == _rows(fresh.pt)
+        assert _rows(got.collisions.ee) == _rows(fresh.ee)
+        kin = self.kinematic
+        if kin.any() and np.array_equal(point.x[kin], self.target[kin]):
+            at_ends.append(len(fresh))
         return got
 
-    got_mesh = []
-    from_model = CollisionMesh.from_model
-
-    def keep_mesh(model):
-        got_mesh.append(from_model(model))
-        return got_mesh[-1]
-
-    monkeypatch.setattr(objective_module.LineSearch, "end_on_targets", end_on_targets)
-    monkeypatch.setattr(objective_module, "narrowed_collisions", checked_narrowing)
-    # the Python loop's line search: 162 DOFs would otherwise run compiled, dense
-    monkeypatch.setattr("ipcsim.simulation.newton_available", lambda: False)
-    monkeypatch.setattr(CollisionMesh, "from_model", staticmethod(keep_mesh))
+    monkeypatch.setattr(step_problem.StepProblem, "at", checked_at)
     ipcsim.run(load_scene(tmp_path / "scene.txt"), tmp_path / "out", steps=4)
-    at_ends = [n for x, n in narrowed if any(x is y for y in ends)]
-    assert len(ends) >= 4 and len(at_ends) == len(ends)  # every end was narrowed
+    assert len(at_ends) >= 4  # every step's first iteration landed and was narrowed
     assert sum(at_ends) > 0  # and pairs were within d̂ there
+
 
 def test_a_step_starts_with_the_collision_set_the_last_one_ended_with(tmp_path, monkeypatch):
     """Each step starts where the last one ended: its first collision set is the one
     the last step found there (no broad phase at the step's start), and the run is the
     same bit for bit as one that queries it again."""
     import ipcsim
-    import ipcsim.potentials.objective as objective_module
+    import ipcsim.potentials.step_problem as step_problem
     from generated import write_box_msh
 
     write_box_msh(tmp_path / "box.msh")
@@ -174,21 +183,20 @@ def test_a_step_starts_with_the_collision_set_the_last_one_ended_with(tmp_path, 
         "shapes input 2\nbox.msh 0 0 0  0 0 0  1 1 1\nbox.msh 0.03 0.2025 0.01  0 0 0  1 1 1\n"
         "dHatAbs 0.004\ntime 0.05 0.01\n")
     queried = []
-    build = objective_module.build_collisions
+    build = step_problem.build_collisions
 
     def counting(mesh, x, dhat):
         queried.append(x.copy())
         return build(mesh, x, dhat)
 
-    monkeypatch.setattr(objective_module, "build_collisions", counting)
+    monkeypatch.setattr(step_problem, "build_collisions", counting)
     spec = load_scene(tmp_path / "scene.txt")
     ipcsim.run(spec, tmp_path / "kept", steps=5)
     kept_queries = list(queried)
     ends = np.load(tmp_path / "kept" / "checkpoint.npz")["x"]
 
     queried.clear()
-    monkeypatch.setattr(objective_module.StepObjective, "kept_collisions", property(
-        lambda self: None))  # no hand-over: each step queries its start again
+    monkeypatch.setattr("ipcsim.simulation._kept", lambda result: None)  # no hand-over
     ipcsim.run(spec, tmp_path / "fresh", steps=5)
     assert len(queried) == len(kept_queries) + 4  # one per step but the first
     np.testing.assert_array_equal(np.load(tmp_path / "fresh" / "checkpoint.npz")["x"], ends)
