@@ -32,7 +32,8 @@ Wall time is the whole process (``benchmarks.vs_original.run_timed``: the origin
 own command without its wrapper, ``ipcsim run`` as a user runs it), the median over
 ``--repeats``; ipcsim runs each scene's first steps untimed first (numba's cache). The
 time-to-accuracy table gives, per scene and target error, each program's fastest run
-within it and the ratio. Energy over time (kinetic + elastic + gravity's) at the
+within it (its error plus its references' difference at most the target) and the
+ratio of the two wall times. Energy over time (kinetic + elastic + gravity's) at the
 scene's own h for the scenes marked ``energy``: ipcsim's from steps.csv and its frames
 (``benchmarks.newmark_impacts.ipcsim_energy``), the original's from its ``sysE.txt``
 (its own per-body sums, as newmark_impacts reads them).
@@ -41,7 +42,8 @@ Prints the tables with the command, machine, date and load; a full run writes
 ``accuracy.csv``, ``accuracy_table.md``, ``accuracy_<scene>.png`` (error against wall
 time) and ``accuracy_energy_<scene>.png`` into ``--out`` (default docs/benchmarks/).
 ``--smoke`` runs two coarse steps and two references of a small scene into a temporary
-folder (well under a minute) and writes files only with ``--out``. Without the original
+folder (well under a minute). A partial run (``--smoke``, ``--only``, ``--duration``,
+``--levels``) writes files only where ``--out`` says. Without the original
 (not installed, its libraries not found: ``--ipc-lib-path``, default ``$IPC_LIB_PATH``)
 or with ``--no-original``, ipcsim's half runs alone.
 
@@ -776,8 +778,11 @@ def main(argv=None) -> int:
             return 0
         text = report(results, info, s, command.strip())
         print(text)
-        out = args.out or (None if args.smoke else DEFAULT_OUT)
-        if out is not None:
+        partial = args.smoke or args.only or args.duration or args.levels
+        out = args.out or (None if partial else DEFAULT_OUT)
+        if out is None:
+            print("accuracy: a partial run writes no files unless --out names a folder")
+        else:
             for path in write_outputs(results, info, s, text, stage, out):
                 print(f"wrote {path}")
     return 0
