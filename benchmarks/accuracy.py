@@ -709,8 +709,8 @@ def parse_args(argv):
                     help="cut every scene to at most S s (a multiple of its h0)")
     ap.add_argument("--levels", type=int, metavar="N",
                     help="only the N coarsest h of each ladder (the references follow)")
-    ap.add_argument("--repeats", type=int, default=1, help="timed runs per ladder point "
-                    "(median; default 1)")
+    ap.add_argument("--repeats", type=int, default=3, help="timed runs per ladder point "
+                    "(median; default 3, --smoke 1)")
     ap.add_argument("--ipc-lib-path", default=vo.os.environ.get("IPC_LIB_PATH", ""),
                     metavar="DIRS", help="folders (':'-separated) with the original's "
                     "runtime libraries, for its process only (default: $IPC_LIB_PATH)")

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from benchmarks import accuracy as acc
+from benchmarks import vs_original as vo
 from ipcsim.model.builder import build_model
 from ipcsim.runner import frame_interval_for
 from ipcsim.scene import load_scene
@@ -26,6 +27,9 @@ def test_every_run_of_every_scene_has_frames_at_the_sample_times(scene):
         speed = [float(line.split()[1]) for line in acc.frame_lines(h, scene.h0)]
         every = frame_interval_for(SceneSpec(dt=h, playback_speed=(speed or [1.0])[0]))
         assert round(scene.h0 / h) % every == 0, (scene.name, h, every)
+        # the script's time line says h to the last digit (9.765625e-05 is not 9.76562e-05)
+        words = vo.shortened("", scene.duration, h).split()
+        assert (float(words[1]), float(words[2])) == (scene.duration, h)
     assert scene.references()[1] < scene.references()[0] < scene.ladder()[-1]
     assert math.isclose(scene.sample_times()[-1], scene.duration)
 
