@@ -57,23 +57,24 @@ def _mesh(stage: Path) -> str:
 
 def ipcsim_energy(out: Path, script: Path, cwd: Path) -> dict[int, float]:
     """Total energy at each framed step of an ipcsim run: kinetic and elastic from
-    steps.csv, gravity's from the frame's heights and the model's masses."""
+    steps.csv, gravity's (−Σ m g·x, zero without gravity) from the frame's positions and
+    the model's masses."""
     import meshio
 
     import ipcsim
 
     with contextlib.chdir(cwd):  # where the script's input/... paths resolve, as for the run
         model = ipcsim.build_model(ipcsim.load_scene(script))
-    mass = np.asarray(model.mass)
+    mass, gravity = np.asarray(model.mass), np.asarray(model.gravity)
     with open(out / "steps.csv", newline="") as f:
         rows = {int(r["step"]): r for r in csv.DictReader(f)}
     energy = {}
     for frame in sorted((out / "frames").glob("frame_*.vtu")):
         k = int(frame.stem.split("_")[1])
         if k in rows:
-            y = meshio.read(frame).points[:, 1]
+            x = np.asarray(meshio.read(frame).points, dtype=float)
             energy[k] = (float(rows[k]["kinetic_energy"]) + float(rows[k]["elastic_energy"])
-                         + float((mass * 9.80665 * y).sum()))
+                         - float(mass @ (x @ gravity)))
     return energy
 
 

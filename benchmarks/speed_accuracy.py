@@ -133,20 +133,33 @@ SCENES = {
 }
 
 
+def write_meshes(scene: SceneDef, res: int, folder: Path) -> list[Path]:
+    """Write the scene's body meshes at resolution ``res`` into ``folder``."""
+    out = []
+    for i, b in enumerate(scene.bodies(res)):
+        points, tets = box_tet_mesh(*b.cells, size=b.size)
+        out.append(write_msh(folder / f"body{i}.msh", points, tets))
+    return out
+
+
+def scene_text(scene: SceneDef, s: Settings, duration: float, meshes: list[str]) -> str:
+    """The text scene for settings ``s``, its bodies' meshes named as ``meshes`` says."""
+    bodies = scene.bodies(s.res)
+    lines = [f"shapes input {len(bodies)}"]
+    for mesh, b in zip(meshes, bodies, strict=True):
+        ox, oy, oz = b.origin
+        lines.append(f"{mesh} {ox} {oy} {oz}  0 0 0  1 1 1 {b.extras}".rstrip())
+    lines += [f"time {duration} {s.dt}", "tol 1", f"{s.tol}", f"dHat {s.dhat}", scene.header]
+    return "\n".join(lines) + "\n"
+
+
 def write_scene(scene: SceneDef, s: Settings, folder: Path, duration: float) -> tuple[Path, list]:
     """Write the meshes and the text scene for settings ``s``; returns (path, bodies)."""
     folder.mkdir(parents=True, exist_ok=True)
-    bodies = scene.bodies(s.res)
-    lines = [f"shapes input {len(bodies)}"]
-    for i, b in enumerate(bodies):
-        points, tets = box_tet_mesh(*b.cells, size=b.size)
-        write_msh(folder / f"body{i}.msh", points, tets)
-        ox, oy, oz = b.origin
-        lines.append(f"body{i}.msh {ox} {oy} {oz}  0 0 0  1 1 1 {b.extras}".rstrip())
-    lines += [f"time {duration} {s.dt}", "tol 1", f"{s.tol}", f"dHat {s.dhat}", scene.header]
+    meshes = write_meshes(scene, s.res, folder)
     path = folder / "scene.txt"
-    path.write_text("\n".join(lines) + "\n")
-    return path, bodies
+    path.write_text(scene_text(scene, s, duration, [m.name for m in meshes]))
+    return path, scene.bodies(s.res)
 
 
 def material_points(scene: SceneDef, model) -> tuple[np.ndarray, np.ndarray]:

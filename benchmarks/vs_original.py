@@ -153,6 +153,7 @@ class Settings:
     compare_rtol: float = 1e-3
     via_script: bool = False  # the original through run-ipc.sh (its start-up timed too)
     say: object = print  # progress messages
+    checkout: bool = False  # ipcsim from this checkout (python -m ipcsim.cli), not the install
 
 
 @dataclass
@@ -221,13 +222,16 @@ def cut_to(scene: Scene, source: Path, duration: float) -> Scene:
     return dataclasses.replace(scene, shorten=(duration, spec.dt))
 
 
-def shortened(text: str, duration: float, dt: float) -> str:
+def shortened(text: str, duration: float, dt: float, extra: tuple[str, ...] = ()) -> str:
     """The script with ``time DURATION DT`` as its last effective ``time`` line: before
     the first ``section`` line (both programs skip what follows a ``section`` that is
     not closed by ``section end``), else at the end; a ``time`` line inside a closed
     section (``section SQP QP ... section end``: what the SQP / QP solvers read instead)
-    becomes the same line."""
-    line = f"time {duration:g} {dt:g}  # added by benchmarks.vs_original\n"
+    becomes the same line. ``extra`` lines (``timeIntegration NM``, say) go in with the
+    ``time`` line, as the last of their kind."""
+    # every digit of both (a ladder of halved steps reaches h = 0.05 / 2**9 = 9.765625e-05)
+    line = f"time {float(duration)!r} {float(dt)!r}  # added by benchmarks.vs_original\n"
+    line += "".join(f"{x}\n" for x in extra)
     rows = text.splitlines(keepends=True)
     opened = None  # the row of the open section's first line
     for k, row in enumerate(rows):
@@ -400,11 +404,18 @@ def run_original(script: Path, out: Path, cwd: Path, s: Settings) -> Run:
 
 
 def run_ipcsim(script: Path, out: Path, cwd: Path, s: Settings, steps: int | None = None) -> Run:
-    cmd = ipcsim_command() + ["run", str(script), "-o", str(_fresh(out)), "-q"]
+    """``ipcsim run SCRIPT -o OUT -q``: the ``ipcsim`` installed beside this Python, or
+    with ``s.checkout`` this checkout's sources (``python -m ipcsim.cli`` with the
+    checkout first on ``PYTHONPATH``; numba then compiles what an install compiled)."""
+    cmd = ([sys.executable, "-m", "ipcsim.cli"] if s.checkout else ipcsim_command()) \
+        + ["run", str(script), "-o", str(_fresh(out)), "-q"]
     if steps:
         cmd += ["--steps", str(steps)]
     # a console script runs its own install; "python -m ipcsim.cli" may need the path
     env = ipcsim_env(s.threads, own_install=cmd[0] != sys.executable)
+    if s.checkout:
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (str(REPO_ROOT), env.get("PYTHONPATH"))
+                                            if p)
     rc, wall, peak, cpu = run_timed(cmd, cwd, env, out.with_name("ipcsim.log"), s.timeout)
     run = Run(rc, wall, peak, cpu)
     read_ipcsim(out, run)

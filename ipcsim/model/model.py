@@ -143,13 +143,16 @@ class MeshSequence(ByMeaning, Struct, frozen=True):
 
 
 class TimeSettings(Struct, frozen=True):
-    """The clock and the integrator: backward Euler ("BE") or Newmark ("NM", β, γ)."""
+    """The clock and the integrator: backward Euler ("BE"), Newmark ("NM", β, γ) or BDF2
+    ("BDF2"); with ``tolerance``, adaptive steps (dt the first and largest)."""
 
     dt: float  # s
     n_steps: int
     integrator: str = "BE"
     newmark_beta: float = 0.25
     newmark_gamma: float = 0.5
+    tolerance: float | None = None  # m: the local error allowed, τ·l (None: fixed steps)
+    duration: float | None = None  # s: the scene's simulated time (None: n_steps·dt)
 
 
 class SolverSettings(Struct, frozen=True):

@@ -26,7 +26,8 @@ Vec3 = tuple[float, float, float]
 INF = math.inf
 
 ENERGIES = ("NH", "FCR")
-INTEGRATORS = ("BE", "NM")
+# BDF2: ipcsim's extension of the original's format (`timeIntegration BDF2`)
+INTEGRATORS = ("BE", "NM", "BDF2")
 # IPC's barrier, or the quadratic penalty baseline of benchmarks/ (no feasibility filter)
 CONTACT_FORMULATIONS = ("barrier", "penalty")
 # ``constraintSolver``: IPC's interior point (barrier) method, or the SQP / QP baselines
@@ -166,7 +167,9 @@ class SceneSpec(ByMeaning, Struct, frozen=True):
 
     # time
     duration: float = 5.0
-    dt: float = 0.025
+    dt: float = 0.025  # with time_tolerance: the first and largest step
+    # beyond the original: adaptive steps to this local error, relative to l (None: fixed)
+    time_tolerance: float | None = None
 
     # material (global)
     density: float = 1000.0

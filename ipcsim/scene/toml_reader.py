@@ -4,7 +4,7 @@ Schema (docs/scene-format.md is the user's reference)::
 
     [scene]       gravity, script, script_params, handle_ratio, size, rotate_model, restart,
                   dbc_time_range, nbc_time_range
-    [time]        duration, dt
+    [time]        duration, dt, tolerance
     [material]    density, youngs_modulus, poisson_ratio, energy
     [integrator]  type, newmark_beta, newmark_gamma, damping_stiff, damping_ratio, warm_start
     [contact]     self_collision, self_friction, kappa ("adaptive" or a number),
@@ -39,6 +39,7 @@ from .spec import (
     CONTACT_FORMULATIONS,
     DEFAULTS,
     INF,
+    INTEGRATORS,
     MESH_KINDS,
     DirichletSpec,
     InitialVelocitySpec,
@@ -309,7 +310,7 @@ class _Reader:
         if kind == "energy":
             return self.choice(v, key, ("NH", "FCR"))
         if kind == "integrator":
-            return self.choice(v, key, ("BE", "NM"))
+            return self.choice(v, key, INTEGRATORS)
         if kind == "formulation":
             return self.choice(v, key, CONTACT_FORMULATIONS)
         if kind == "solver":
@@ -500,7 +501,8 @@ _SIMPLE: dict[str, dict[str, tuple[str, str]]] = {
         "dbc_time_range": ("dbc_time_range", "range"),
         "nbc_time_range": ("nbc_time_range", "range"),
     },
-    "time": {"duration": ("duration", "float"), "dt": ("dt", "float")},
+    "time": {"duration": ("duration", "float"), "dt": ("dt", "float"),
+             "tolerance": ("time_tolerance", "float")},
     "material": {
         "density": ("density", "float"),
         "youngs_modulus": ("youngs_modulus", "float"),

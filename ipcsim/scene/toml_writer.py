@@ -28,7 +28,9 @@ def scene_to_dict(spec: SceneSpec, folder: Path, name_path=None) -> dict:
     rel = name_path or (lambda p: paths.relative_for_writing(p, folder))
     doc: dict = {
         "scene": _scene_table(s, rel),
-        "time": {"duration": float(s.duration), "dt": float(s.dt)},
+        "time": {"duration": float(s.duration), "dt": float(s.dt),
+                 **({} if s.time_tolerance is None
+                    else {"tolerance": float(s.time_tolerance)})},
         "material": {"density": float(s.density), "youngs_modulus": float(s.youngs_modulus),
                      "poisson_ratio": float(s.poisson_ratio), "energy": s.energy},
         "integrator": {"type": s.integrator, "newmark_beta": float(s.newmark_beta),

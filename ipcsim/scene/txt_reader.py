@@ -35,6 +35,7 @@ from .spec import (
     UNSUPPORTED_CONSTRAINT_TYPES,
     ENERGIES,
     INF,
+    INTEGRATORS,
     MESH_KINDS,
     SUPPORTED_SCRIPTS,
     DirichletSpec,
@@ -86,7 +87,9 @@ USAGE = {
     "density": "density <rho>",
     "stiffness": "stiffness <E> <nu>",
     "energy": "energy NH|FCR",
-    "timeIntegration": "timeIntegration BE | timeIntegration NM [<beta> [<gamma>]]",
+    "timeIntegration": "timeIntegration BE | timeIntegration NM [<beta> [<gamma>]] | "
+                       "timeIntegration BDF2",
+    "timeTolerance": "timeTolerance <relative error>",
     "turnOffGravity": "turnOffGravity",
     "dampingStiff": "dampingStiff <k>",
     "dampingRatio": "dampingRatio <r>",
@@ -663,10 +666,10 @@ class _TxtReader:
         a.done()
 
     def kw_timeIntegration(self, a: _Cursor) -> None:
-        name = a.word("an integrator (BE or NM)")
-        if name not in ("BE", "NM"):
-            a.fail(f"unknown time integrator '{_q(name)}'{suggest(name, ('BE', 'NM'))} "
-                   "(choose BE or NM)", a.line)
+        name = a.word("an integrator (BE, NM or BDF2)")
+        if name not in INTEGRATORS:
+            a.fail(f"unknown time integrator '{_q(name)}'{suggest(name, INTEGRATORS)} "
+                   "(choose BE, NM or BDF2)", a.line)
         self.set("integrator.type", "integrator", name, a.line)
         if name == "NM":
             beta = a.optional_number("beta", strict=True)
@@ -675,6 +678,11 @@ class _TxtReader:
                 gamma = a.optional_number("gamma", strict=True)
                 if gamma is not None:
                     self.set("integrator.newmark_gamma", "newmark_gamma", gamma, a.line)
+        a.done()
+
+    def kw_timeTolerance(self, a: _Cursor) -> None:
+        """ipcsim's extension: adaptive time steps to this local error (relative to l)."""
+        self.set("time.tolerance", "time_tolerance", a.number("relative error"), a.line)
         a.done()
 
     def kw_turnOffGravity(self, a: _Cursor) -> None:

@@ -89,6 +89,8 @@ def _physics_lines(s: SceneSpec) -> list[str]:
         L.append(f"timeIntegration NM {_f(s.newmark_beta)} {_f(s.newmark_gamma)}")
     else:
         L.append(f"timeIntegration {s.integrator}")
+    if s.time_tolerance is not None:
+        L.append(f"timeTolerance {_f(s.time_tolerance)}")
     L.append(f"dampingStiff {_f(s.damping_stiff)}")
     L.append(f"dampingRatio {_f(s.damping_ratio)}")
     L.append(f"warmStart {s.warm_start}")

@@ -30,6 +30,7 @@ LINEAR_SOLVERS = ("cholmod", "pardiso", "scipy", "superlu", "eigen", "amgcl")
 _TEXT_NAMES = {
     "time.duration": "`time` duration",
     "time.dt": "`time` step dt",
+    "time.tolerance": "`timeTolerance`",
     "material.density": "`density`",
     "material.youngs_modulus": "`stiffness` Young's modulus",
     "material.poisson_ratio": "`stiffness` Poisson ratio",
@@ -256,6 +257,12 @@ def _check_time(c: _Checker, s: SceneSpec) -> None:
     if not steps <= MAX_STEPS:  # also catches an overflow to inf
         c.fail("time.duration", f"({_num(s.duration)} s) with dt = {_num(s.dt)} s makes "
                                 f"{steps:.3g} time steps; ipcsim runs at most {MAX_STEPS:.0e}")
+    if s.time_tolerance is not None:
+        # a position error relative to the scene size, as d-hat is
+        c.number("time.tolerance", s.time_tolerance, positive=True)
+        if not s.time_tolerance < 1.0:
+            c.fail("time.tolerance", f"must be below 1: it is an error relative to the "
+                                     f"scene size (got {_num(s.time_tolerance)})")
 
 
 def _check_material_and_integrator(c: _Checker, s: SceneSpec) -> None:

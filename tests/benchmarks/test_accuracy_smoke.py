@@ -1,0 +1,102 @@
+"""benchmarks/accuracy.py in small: its rules on their own, then ``--smoke`` with
+ipcsim alone, and with the original program where it runs here (its libraries
+installed, or ``IPC_LIB_PATH`` naming them)."""
+
+from __future__ import annotations
+
+import csv
+import math
+
+import numpy as np
+import pytest
+
+from benchmarks import accuracy as acc
+from benchmarks import vs_original as vo
+from ipcsim.model.builder import build_model
+from ipcsim.runner import frame_interval_for
+from ipcsim.scene import load_scene
+from ipcsim.scene.spec import SceneSpec
+
+
+@pytest.mark.parametrize("scene", acc.SCENES + acc.EXTRA + (acc.SMOKE,),
+                         ids=lambda sc: sc.name)
+def test_every_run_of_every_scene_has_frames_at_the_sample_times(scene):
+    """ipcsim's own frame rule, with the line frame_lines adds, lands on every multiple
+    of h0 at every h of the ladder and the references."""
+    for h in scene.ladder() + scene.references():
+        speed = [float(line.split()[1]) for line in acc.frame_lines(h, scene.h0)]
+        every = frame_interval_for(SceneSpec(dt=h, playback_speed=(speed or [1.0])[0]))
+        assert round(scene.h0 / h) % every == 0, (scene.name, h, every)
+        # the script's time line says h to the last digit (9.765625e-05 is not 9.76562e-05)
+        words = vo.shortened("", scene.duration, h).split()
+        assert (float(words[1]), float(words[2])) == (scene.duration, h)
+    assert scene.references()[1] < scene.references()[0] < scene.ladder()[-1]
+    assert math.isclose(scene.sample_times()[-1], scene.duration)
+
+
+def test_denser_frames_only_where_the_default_ones_miss():
+    assert acc.frame_lines(0.025, 0.05) == acc.frame_lines(0.00625, 0.05) == ()
+    (line,) = acc.frame_lines(0.003125, 0.05)  # every 3 steps would miss 0.05 s
+    assert line.startswith("playBackSpeed ") and \
+        math.isclose(float(line.split()[1]) * 0.03, 0.00625)
+    with pytest.raises(ValueError, match="does not divide"):
+        acc.frame_lines(0.003, 0.05)
+
+
+def test_observed_order_and_error():
+    hs = [0.1, 0.05, 0.025]
+    assert acc.observed_order([(h, 3.0 * h ** 2) for h in hs]) == pytest.approx(2.0)
+    assert acc.observed_order([(0.1, 1e-3)]) is None
+    x = np.zeros((2, 4, 3))
+    ref = x.copy()
+    ref[..., 0] = 3.0  # every vertex 3 m off at every time
+    assert acc.rms_error(x, ref, 2.0) == pytest.approx(1.5)
+    assert acc.rms_error(None, ref, 2.0) is None
+
+
+def test_the_spinning_bar_is_contact_free_and_spins(repo_root):
+    model = build_model(load_scene(repo_root / "input" / "spinning_bar.txt"))
+    assert not model.needs_mesh_contact and not model.needs_plane_contact
+    assert not np.any(model.gravity) and np.abs(model.initial_velocities).max() > 1.0
+
+
+def _rows(path) -> list[dict]:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def _check_program(rows: list[dict], program: str) -> None:
+    mine = [r for r in rows if r["program"] == program]
+    refs = [r for r in mine if r["role"] == "reference"]
+    ladder = [r for r in mine if r["role"] == "ladder"]
+    assert len(refs) == 2 and {r["integrator"] for r in ladder} == {"BE", "NM"}
+    assert all(r["rc"] == "0" for r in mine)
+    for r in ladder:  # BE at these steps is far from its reference: a real error
+        assert float(r["error"]) >= 0 and float(r["wall_s"]) > 0
+    be = sorted((float(r["h"]), float(r["error"])) for r in ladder if r["integrator"] == "BE")
+    assert be[0][1] < be[1][1]  # the smaller step is the more accurate
+
+
+def test_smoke_with_ipcsim_alone_writes_the_tables_and_charts(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert acc.main(["--smoke", "--no-original", "--work", str(tmp_path / "w"),
+                     "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "the original is not run: --no-original" in printed
+    assert "ipcsim's references h = 0.0125 and 0.00625 s differ by" in printed
+    assert "### Time to accuracy" in printed and "Machine: " in printed
+    _check_program(_rows(out / "accuracy.csv"), "ipcsim")
+    names = {p.name for p in out.iterdir()}
+    assert {"accuracy.csv", "accuracy_table.md", "accuracy_two_cubes_smoke.png",
+            "accuracy_energy_two_cubes_smoke.png"} <= names
+
+
+def test_smoke_with_both_programs(tmp_path, capsys):
+    assert acc.main(["--smoke", "--work", str(tmp_path / "w"), "--out", str(tmp_path)]) == 0
+    printed = capsys.readouterr().out
+    if "the original is not run:" in printed:
+        pytest.skip(next(ln for ln in printed.splitlines() if "the original is not run" in ln))
+    rows = _rows(tmp_path / "accuracy.csv")
+    for program in ("original", "ipcsim"):
+        _check_program(rows, program)
+    assert "original's references h = 0.0125 and 0.00625 s differ by" in printed
