@@ -1,4 +1,5 @@
-"""Surface extraction: boundary triangles of tet meshes and unique edges of triangle sets.
+"""Surface extraction: boundary triangles of tet meshes, boundary edges of triangle meshes
+(the collision "surface" of a 2D body) and unique edges of triangle sets.
 
 Everything here is vectorised with sort + unique; no Python loop per face.
 
@@ -62,6 +63,23 @@ def boundary_triangles(tets: np.ndarray) -> np.ndarray:
     _, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
     on_boundary = counts[inverse] == 1  # interior faces appear twice (once per side)
     return faces[on_boundary]
+
+
+def boundary_edges(triangles: np.ndarray) -> np.ndarray:
+    """Boundary edges (k, 2) int64 of a triangle mesh (m, 3) in the plane: the edges that
+    one triangle alone uses, each directed as in its triangle, so that a counter-clockwise
+    triangle has its interior on the left of the edge and the outward normal (dy, −dx) on
+    its right. In triangle order (triangle 0's boundary edges first), each triangle's
+    edges in the order (0, 1), (1, 2), (2, 0)."""
+    triangles = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    if len(triangles) == 0:
+        return np.zeros((0, 2), dtype=np.int64)
+    # edge k of triangle t at row 3t + k
+    edges = np.stack([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]],
+                     axis=1).reshape(-1, 2)
+    _, inverse, counts = np.unique(_row_keys(np.sort(edges, axis=1)), return_inverse=True,
+                                   return_counts=True)
+    return edges[counts[inverse] == 1]
 
 
 def unique_edges(triangles: np.ndarray) -> np.ndarray:

@@ -144,6 +144,24 @@ def project_psd(H):
 
 
 @njit(cache=True, error_model="numpy")
+def project_psd_on_dofs(H, dof):
+    """project_psd(H) for a symmetric H that is zero outside the rows and columns ``dof``
+    (int array): only that block is decomposed, the rest of the result is zero. Returns
+    a new array of H's shape."""
+    n = dof.shape[0]
+    sub = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            sub[i, j] = H[dof[i], dof[j]]
+    P = project_psd(sub)
+    out = np.zeros(H.shape)
+    for i in range(n):
+        for j in range(n):
+            out[dof[i], dof[j]] = P[i, j]
+    return out
+
+
+@njit(cache=True, error_model="numpy")
 def symmetric_eigen(A, w, V):
     """Eigenvalues w (n,) and orthonormal eigenvectors V (columns, n x n) of the
     symmetric A (read only): A = V diag(w) Vᵀ, w in no particular order.

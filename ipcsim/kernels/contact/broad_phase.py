@@ -387,8 +387,9 @@ def gather_rows(first, second, pairs):
 
 @kernel(parallel=True)
 def swept_pairs_within(x0, x1, pairs, split, inflation):
-    """Mask of the pairs (rows of 4 vertices: the first ``split`` form one primitive, the
-    rest the other) whose boxes over the motion x0 -> x1, grown by inflation/2, overlap:
+    """Mask of the pairs (rows of 4 vertices, or of 3 for point-edge pairs: the first
+    ``split`` form one primitive, the rest the other) whose boxes over the motion
+    x0 -> x1, grown by inflation/2, overlap:
     the same test as the broad phase, applied to a known list of pairs (cheaper than a new
     query when the list is a superset, as for a shorter part of an already swept step)."""
     m = pairs.shape[0]
@@ -401,7 +402,7 @@ def swept_pairs_within(x0, x1, pairs, split, inflation):
             hi0 = -np.inf
             lo1 = np.inf
             hi1 = -np.inf
-            for j in range(4):
+            for j in range(pairs.shape[1]):
                 v = pairs[i, j]
                 lo = min(x0[v, a], x1[v, a])
                 hi = max(x0[v, a], x1[v, a])
