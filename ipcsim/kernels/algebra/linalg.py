@@ -1,5 +1,5 @@
 """Small dense linear algebra for per-stencil kernels (3-vectors, 3x3 determinants, 12x12
-blocks), and the one floating-point tet volume of the package.
+blocks), and the one floating-point tet volume (and triangle area) of the package.
 
 Everything here is called a few times per contact pair or tet. Like distance.py, mollifier.py
 and contact_barrier.py it compiles with error_model="numpy": a division by zero (a
@@ -107,6 +107,21 @@ def tet_signed_volumes(x, tets):
     for e in range(m):
         tet_edge_matrix(x, tets, e, D)
         out[e] = det3(D) / 6.0
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def triangle_signed_areas(x, triangles):
+    """Signed areas (m,) of the triangles (m, 3) of a 2D scene over positions x (n, 3),
+    in the plane z = 0: A = det[x1 − x0, x2 − x0] / 2 of the x, y parts (positive for a
+    counter-clockwise triangle). The floating-point area of the package, as
+    ``tet_signed_volumes`` is the volume; the exact sign is ``intersection.orient2d``."""
+    m = triangles.shape[0]
+    out = np.empty(m)
+    for e in range(m):
+        a, b, c = triangles[e, 0], triangles[e, 1], triangles[e, 2]
+        out[e] = 0.5 * ((x[b, 0] - x[a, 0]) * (x[c, 1] - x[a, 1])
+                        - (x[b, 1] - x[a, 1]) * (x[c, 0] - x[a, 0]))
     return out
 
 
