@@ -62,13 +62,15 @@ def box_tet_mesh(nx: int, ny: int, nz: int, size=(1.0, 1.0, 1.0),
 
 
 def write_msh(path, points: np.ndarray, tets: np.ndarray) -> Path:
-    """Write a tet mesh as Gmsh MSH 4.1 ASCII (through meshio); returns the path."""
+    """Write a tet mesh (or, given (m, 3) cells, a triangle mesh) as Gmsh MSH 4.1 ASCII
+    (through meshio); returns the path."""
     import meshio
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    cells = np.asarray(tets, dtype=np.int64)
     mesh = meshio.Mesh(np.asarray(points, dtype=np.float64),
-                       [("tetra", np.asarray(tets, dtype=np.int64))])
+                       [("tetra" if cells.shape[1] == 4 else "triangle", cells)])
     meshio.write(str(path), mesh, file_format="gmsh", binary=False)
     return path
 

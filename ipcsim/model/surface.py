@@ -132,6 +132,17 @@ def enclosed_volume(points: np.ndarray, triangles: np.ndarray) -> float:
     return float(tet_signed_volumes(apex, tets).sum())
 
 
+def triangle_signed_areas(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Signed areas (m,) of triangles in the plane z = 0: A = det[x1 − x0, x2 − x0] / 2 of
+    their x, y parts (``kernels.algebra.linalg.triangle_signed_areas``, for any
+    array-like input)."""
+    from ..kernels.algebra.linalg import triangle_signed_areas as kernel  # numba: on use
+
+    p = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    t = np.ascontiguousarray(triangles, dtype=np.int64).reshape(-1, 3)
+    return kernel(p, t)
+
+
 def tet_signed_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
     """Signed volumes (m,) of tets: V = det[x1 - x0, x2 - x0, x3 - x0] / 6
     (``kernels.algebra.linalg.tet_signed_volumes``, for any array-like input)."""

@@ -29,6 +29,7 @@ def test_writer_fills_in_every_default(write_scene, scene_dir):
     doc = tomllib.loads((save_scene(spec, scene_dir / "out.toml")).read_text())
     for table, keys in _SIMPLE.items():
         optional = {"rotate_model", "restart", "dhat_abs", "epsv_abs"}  # None: left out
+        optional |= {"dimension", "node_masses", "barrier", "gravity_acceleration"}  # 2D only
         assert set(doc[table]) == set(keys) - optional, table
     assert doc["contact"]["kappa"] == "adaptive" and doc["solver"]["linear_solver"] == "auto"
     assert doc["scene"]["dbc_time_range"] == [0.0, math.inf]
