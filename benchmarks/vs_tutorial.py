@@ -157,26 +157,35 @@ def _centre_of_mass(ns: dict, nb: int) -> np.ndarray:
     return (m[:, None] * ns["x"][:nb]).sum(axis=0) / m.sum()
 
 
-def run_tutorial_lesson(lesson: str, steps: int | None = None, duration: float | None = None,
-                        root: Path = TUTORIAL) -> TutorialRun:
-    """Run ``steps`` steps of a lesson (or as many as ``duration`` seconds of simulated
-    time take at the lesson's h; 100 steps without either) in the tutorial's own code."""
+@contextlib.contextmanager
+def tutorial_setup(lesson: str, root: Path = TUTORIAL):
+    """The lesson set up as its simulator.py does it (the namespace its set-up code
+    leaves, with its energy modules imported), while its modules are importable; and the
+    compiled step statement. Within the block the lesson's printing goes to a sink."""
     folder = lesson_folder(lesson, root)
-    spec = ENERGIES[lesson]
     setup, step = setup_source(folder / "simulator.py")
     with _lesson_imports(folder), contextlib.redirect_stdout(io.StringIO()) as sink:
-        ns: dict = {"__name__": f"tutorial_{lesson}"}
+        ns: dict = {"__name__": f"tutorial_{lesson}", "__sink__": sink}
         exec(compile(setup, str(folder / "simulator.py"), "exec"), ns)
         for module in ("GravityEnergy", "BarrierEnergy", "MassSpringEnergy", "NeoHookeanEnergy"):
             if (folder / f"{module}.py").is_file():
                 exec(f"import {module}", ns)
+        yield ns, compile(step, str(folder / "simulator.py"), "exec")
+
+
+def run_tutorial_lesson(lesson: str, steps: int | None = None, duration: float | None = None,
+                        root: Path = TUTORIAL) -> TutorialRun:
+    """Run ``steps`` steps of a lesson (or as many as ``duration`` seconds of simulated
+    time take at the lesson's h; 100 steps without either) in the tutorial's own code."""
+    spec = ENERGIES[lesson]
+    with tutorial_setup(lesson, root) as (ns, step_code):
         h = float(ns["h"])
         n = steps if steps is not None else (
             int(round(duration / h)) if duration is not None else 100)
         nb = int(eval(spec.body_nodes, ns))
-        step_code = compile(step, str(folder / "simulator.py"), "exec")
         rows = [(_centre_of_mass(ns, nb), _energies(ns, spec, nb))]
         wall = np.empty(n)
+        sink = ns["__sink__"]
         for i in range(n):
             t0 = time.perf_counter()
             exec(step_code, ns)
@@ -223,7 +232,8 @@ def main(argv: list[str] | None = None) -> int:
     length = ap.add_mutually_exclusive_group()
     length.add_argument("--steps", type=int, help="steps per lesson (default 100)")
     length.add_argument("--duration", type=float, help="simulated seconds per lesson")
-    ap.add_argument("--out", type=Path, default=DEFAULT_OUT, help="CSV folder (default: %(default)s)")
+    ap.add_argument("--out", type=Path, default=DEFAULT_OUT,
+                    help="CSV folder (default: %(default)s)")
     args = ap.parse_args(argv)
     lessons = [s for s in args.lessons.split(",") if s]
     unknown = [s for s in lessons if s not in ENERGIES]

@@ -11,7 +11,8 @@ position of any point pair, so
                       l_p = max_i |de_i - dp|             (PE)
 
 (the relative motion of p against any convex combination of t0, t1, t2, of any point of
-edge a against any point of edge b, or of p against any point of edge e). From a time t with distance d, advancing by
+edge a against any point of edge b, or of p against any point of edge e). From a time t
+with distance d, advancing by
 
     δ = s·d / l_p,   s = (1 - f)·(1 - 1e-3)
 
@@ -32,8 +33,9 @@ drops every query whose safe time already reaches the smallest finished result, 
 only run while they could still lower the step.
 
 Distances are those of ``kernels/contact/distance.py`` (closest feature chosen as ipctk does, then
-that feature's distance), the ones the barriers use (point-edge: ``point_edge_distance_sq``); ``point_triangle_distance_sq(q)`` and
-``edge_edge_distance_sq(q)`` here only take the stencil as one (4, 3) array. They are not
+that feature's distance), the ones the barriers use (point-edge: ``point_edge_distance_sq``);
+``point_triangle_distance_sq(q)`` and ``edge_edge_distance_sq(q)`` here only take the
+stencil as one (4, 3) array. They are not
 lower bounds, and need not be. A computed distance d_c = (1 + e)·d (d the exact one)
 advances by δ = s·d_c/l_p, over which the exact distance stays at least
 d − l_p·δ = (1 − s·(1 + e))·d. With s = (1 − f)(1 − 1e-3) that is at least f·d (the step

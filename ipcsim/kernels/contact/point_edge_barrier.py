@@ -219,8 +219,8 @@ def pe_barrier_hessian_blocks(x, pe_pairs, weights, s_hat, kappa, form, project)
     int64, vals (81 a,)); block b holds vals[81 b : 81 (b + 1)], row-major over its
     stencil's 9 DOFs (``assembly.block_triplet_indices`` gives each entry's row and
     column). With ``project`` each block is clamped to PSD on the in-plane DOFs of its
-    closest feature's vertices (w ≥ 0 commutes with the clamp; z rows and columns 0). Blocks of pairs that share vertices are
-    to be summed."""
+    closest feature's vertices (w ≥ 0 commutes with the clamp; z rows and columns 0).
+    Blocks of pairs that share vertices are to be summed."""
     _, d2 = pe_classify_and_distance(x, pe_pairs)
     act = np.flatnonzero(d2 < s_hat)
     na = act.shape[0]

@@ -17,7 +17,8 @@ so ψᵢ = ∂Ψ/∂σᵢ, ∂²Ψ/∂σ² and the twist and flip eigenvalues of
 ones at σ = (σ0, σ1, 1) (``tets.sigma_hessian``). The rotations U, V are those of the
 plane: an inverted triangle's reflection stays in the plane (σ1 < 0), where the 3D SVD of
 diag(F, 1) would put it on its smallest singular value, the 1 along z when |σ1| > 1 (so
-the fixed corotated energy of such a triangle is not the 3D one of diag(F, 1)). ∂²Ψ/∂F² (4 x 4) has the eigenmatrices
+the fixed corotated energy of such a triangle is not the 3D one of diag(F, 1)).
+∂²Ψ/∂F² (4 x 4) has the eigenmatrices
 
     scaling  Σᵢ wᵢₖ uᵢvᵢᵀ         eigenvalues of the 2 x 2 block ∂²Ψ/∂σ², w its vectors
     twist    (u0v1ᵀ − u1v0ᵀ)/√2   λ = (ψ0 + ψ1)/(σ0 + σ1)
@@ -415,7 +416,8 @@ def max_step_per_triangle(x, p, triangles, min_area_ratio):
                 out[e] = 0.0
                 continue
             # det(Ds + t Dp) = det Dp t² + ⟨cof Ds, Dp⟩ t + det Ds
-            b = Ds[0, 0] * Dp[1, 1] + Dp[0, 0] * Ds[1, 1] - Ds[0, 1] * Dp[1, 0] - Dp[0, 1] * Ds[1, 0]
+            b = (Ds[0, 0] * Dp[1, 1] + Dp[0, 0] * Ds[1, 1]
+                 - Ds[0, 1] * Dp[1, 0] - Dp[0, 1] * Ds[1, 0])
             out[e] = first_nonpositive(0.0, _det2(Dp), b, (1.0 - min_area_ratio) * d0)
     return out
 
