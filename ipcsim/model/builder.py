@@ -11,6 +11,11 @@ Follows docs/ipc-scene-format.md §5.1 (assembly order):
 4. the legacy script (``null``: codim shapes fixed, velocity shapes, DBCs, mesh sequences);
 5. initial velocities (``initVel``, script ``null`` only), ``restart`` files;
 6. meshCO obstacles are appended as fixed "obstacle" shapes (never rescaled, §8.15).
+
+A 2D scene (``scene.dimension == 2``) is built by ``builder_2d.build_model_2d`` from the
+same stages where they mean the same (placement, prescribed motion, initial velocities,
+planes, parameters) and its own where they do not (triangles and springs, masses, the
+boundary edges that collide).
 """
 
 from __future__ import annotations
@@ -31,6 +36,7 @@ from .model import (GRAVITY, ConstraintSolverSettings, DirichletSet, MeshSequenc
 from .surface import boundary_triangles, index_set, tet_signed_volumes, unique_edges
 
 SEQUENCE_EXT = {"tet": "msh", "surface": "obj", "segments": "seg", "points": "pt"}
+ELASTIC_PART_KINDS = ("tet", "triangles")  # simulated bodies: tets, a 2D scene's triangles
 ENERGY_NAMES = {"NH": "neo-Hookean", "FCR": "fixed corotated"}
 
 
@@ -122,7 +128,7 @@ def _load_shape(scene: SceneSpec, i: int, spec: ShapeSpec, warnings: list[str]) 
     tets = data.get("tets", np.zeros((0, 4), np.int64))
     triangles = data.get("triangles", np.zeros((0, 3), np.int64))
     edges = data.get("edges", np.zeros((0, 2), np.int64))
-    label = f"shape {i + 1} ({spec.path or spec.mesh_path.name})"
+    label = f"shape {i + 1} ({spec.label})"
 
     scale = np.asarray(spec.scale, dtype=np.float64)
     if not np.all(np.isfinite(scale)) or np.any(scale == 0.0):
@@ -151,23 +157,32 @@ def _load_shape(scene: SceneSpec, i: int, spec: ShapeSpec, warnings: list[str]) 
     for j, nb in enumerate(spec.nbc):
         part.nbc.append((select_in_box(file_points, candidates, nb.box_min, nb.box_max), nb, j))
 
-    part.material = (scene.density, scene.youngs_modulus, scene.poisson_ratio)
+    part.material = _shape_material(scene, spec, kind, label, warnings)
+    return part
+
+
+def _shape_material(scene: SceneSpec, spec: ShapeSpec, kind: str, label: str,
+                    warnings: list[str]) -> tuple[float, float, float]:
+    """(density, E, nu) of a shape: its own material where it is a body with a usable
+    one, else the scene's."""
+    material = (scene.density, scene.youngs_modulus, scene.poisson_ratio)
     m = spec.material
     if m is not None:
         values = (m.density, m.youngs_modulus, m.poisson_ratio)
-        if kind != "tet":
-            warnings.append(f"{label}: material ignored (only tet shapes are elastic)")
+        if kind not in ELASTIC_PART_KINDS:
+            what = "tet" if scene.dimension == 3 else "body"
+            warnings.append(f"{label}: material ignored (only {what} shapes are elastic)")
         elif not all(math.isfinite(v) for v in values):
             warnings.append(f"{label}: material with non-finite values ignored")
         elif m.density <= 0.0 or m.youngs_modulus <= 0.0:
             warnings.append(f"{label}: material needs density > 0 and E > 0; "
                             "using the global material")
         else:
-            part.material = values
-    if kind == "tet" and not (-1.0 < part.material[2] < 0.5):
-        raise _scene_error(scene, spec.line, f"{label}: Poisson ratio {part.material[2]} "
+            material = values
+    if kind in ELASTIC_PART_KINDS and not (-1.0 < material[2] < 0.5):
+        raise _scene_error(scene, spec.line, f"{label}: Poisson ratio {material[2]} "
                                              "must be in (-1, 0.5)")
-    return part
+    return material
 
 
 def _load_obstacle(scene: SceneSpec, k: int, ob) -> _Part:
@@ -194,6 +209,11 @@ def build_model(scene: SceneSpec) -> Model:
     if not isinstance(scene, SceneSpec):
         raise ArgumentError("build_model takes a SceneSpec (ipcsim.load_scene(path)), got "
                             f"{type(scene).__name__}")
+    if scene.dimension == 2:
+        # the time step, and so every command and the API that simulate, is 3D: a 2D
+        # scene's Model (builder_2d.build_model_2d) would be run as if it were 3D
+        raise _scene_error(scene, scene.line_of("scene.dimension"),
+                           "2D scenes cannot be simulated yet ([scene] dimension = 2)")
     try:
         return _build_model(scene)
     except MeshError as exc:
@@ -319,7 +339,7 @@ class _Motion(Struct):
 
 def _label(scene: SceneSpec, i: int) -> str:
     spec = scene.shapes[i]
-    return f"shape {i + 1} ({spec.path or spec.mesh_path.name})"
+    return f"shape {i + 1} ({spec.label})"
 
 
 def _prescribed_motion(scene, parts, offsets, placed, obstacles, warnings) -> _Motion:
@@ -330,7 +350,7 @@ def _prescribed_motion(scene, parts, offsets, placed, obstacles, warnings) -> _M
     motion = _Motion(initial=initial, always=np.zeros(len(rest), dtype=bool))
     null_script = scene.script == "null"
     for p in parts:
-        if p.kind != "tet":
+        if p.kind not in ELASTIC_PART_KINDS:
             motion.always[offsets[p.index]:offsets[p.index + 1]] = True  # never simulated
         for verts, nb, j in p.nbc:  # NBCs apply whatever the script
             src = f"{_label(scene, p.index)} NBC {j + 1}"
@@ -373,7 +393,7 @@ def _shape_motion(scene, p: _Part, offsets, motion: _Motion, warnings) -> None:
             rng_i, linear_velocity=tuple(lin or (0.0, 0.0, 0.0)),
             angular_velocity=tuple(math.radians(w) for w in (ang or (0.0, 0.0, 0.0))),
             source=f"{_label(scene, p.index)} velocity"))
-    elif p.kind != "tet":
+    elif p.kind not in ELASTIC_PART_KINDS:
         motion.dbc_sets.append(DirichletSet(rng_i,
                                             source=f"{_label(scene, p.index)} (codim, fixed)"))
 
@@ -410,7 +430,7 @@ def _warn_ignored_shape_motion(scene, parts, warnings) -> None:
 
 def _elastic_shapes(all_parts, offsets, always) -> np.ndarray:
     """(s,) bool: tet shapes that are simulated (velocity / meshSeq tet shapes are not)."""
-    elastic = np.array([p.kind == "tet" for p in all_parts], dtype=bool)
+    elastic = np.array([p.kind in ELASTIC_PART_KINDS for p in all_parts], dtype=bool)
     for i in range(len(all_parts)):
         if elastic[i] and np.all(always[offsets[i]:offsets[i + 1]]):
             elastic[i] = False
@@ -536,7 +556,7 @@ def _initial_velocities(scene, parts, offsets, motion: _Motion, warnings) -> np.
         iv = scene.shapes[p.index].init_velocity
         if iv is None:
             continue
-        if p.kind != "tet":
+        if p.kind not in ELASTIC_PART_KINDS:
             warnings.append(f"shape {p.index + 1}: initVel ignored on a codim shape")
             continue
         sl = slice(offsets[p.index], offsets[p.index + 1])
@@ -570,7 +590,8 @@ def _planes(scene) -> dict:
     """Analytic planes: origins, unit normals (solid side opposite), friction."""
     if not scene.planes:
         return dict(plane_origins=np.zeros((0, 3)), plane_normals=np.zeros((0, 3)),
-                    plane_friction=np.zeros(0))
+                    plane_friction=np.zeros(0), plane_velocities=np.zeros((0, 3)),
+                    plane_limits=np.zeros((0, 3)))
     origins = np.array([p.origin for p in scene.planes], dtype=np.float64)
     normals = np.array([p.normal for p in scene.planes], dtype=np.float64)
     norms = np.linalg.norm(normals, axis=1)
@@ -578,7 +599,10 @@ def _planes(scene) -> dict:
         raise _scene_error(scene, scene.planes[int(np.argmin(norms))].line,
                            "half-space normal must be non-zero")
     return dict(plane_origins=origins, plane_normals=normals / norms[:, None],
-                plane_friction=np.array([p.friction for p in scene.planes], dtype=np.float64))
+                plane_friction=np.array([p.friction for p in scene.planes], dtype=np.float64),
+                plane_velocities=np.array([p.velocity for p in scene.planes], dtype=np.float64),
+                plane_limits=np.array([p.limit if p.limit is not None else (np.nan,) * 3
+                                       for p in scene.planes], dtype=np.float64))
 
 
 def _contact_parameters(scene, l: float) -> dict:
@@ -598,7 +622,8 @@ def _contact_parameters(scene, l: float) -> dict:
         contact_formulation=scene.contact_formulation,
         penalty_stiffness=float(scene.penalty_stiffness),
         damping_stiffness=float(damping),
-        gravity=np.array(GRAVITY if scene.gravity else (0.0, 0.0, 0.0)),
+        gravity=np.array((scene.gravity_acceleration or GRAVITY) if scene.gravity
+                         else (0.0, 0.0, 0.0)),
     )
 
 

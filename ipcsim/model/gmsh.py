@@ -16,7 +16,8 @@ MSH 4.1 layout (``$Nodes``): ``numEntityBlocks numNodes minTag maxTag``, then pe
 ``entityDim entityTag parametric numNodesInBlock``, its node tags one per line, then one
 ``x y z`` line per node; (``$Elements``): ``numEntityBlocks numElements minTag maxTag``,
 then per block ``entityDim entityTag elementType numElementsInBlock`` and one
-``tag node...`` line per element. Element type 4 is the 4-node tetrahedron.
+``tag node...`` line per element. Element type 4 is the 4-node tetrahedron, type 2 the
+3-node triangle (the elements of a 2D scene's meshes).
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from msgspec import Struct
 import numpy as np
 
 TETRAHEDRON = 4  # Gmsh's element type of the 4-node tetrahedron
+TRIANGLE = 2  # ... and of the 3-node triangle
 
 
 class GmshText(Struct, frozen=True):
@@ -40,13 +42,23 @@ class GmshText(Struct, frozen=True):
     def tetrahedra(self) -> tuple[np.ndarray, np.ndarray] | None:
         """(points (n, 3), tets (m, 4) 0-based) when this reader can give them (module
         docstring), else None."""
+        return self.elements(TETRAHEDRON, 4)
+
+    def triangles(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(points (n, 3), triangles (m, 3) 0-based), as ``tetrahedra``."""
+        return self.elements(TRIANGLE, 3)
+
+    def elements(self, kind: int, width: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """(points, elements of Gmsh type ``kind`` with ``width`` nodes, 0-based), or
+        None where this reader cannot give them (parametric nodes, tags other than 1..n
+        in file order, no such elements)."""
         n = len(self.node_tags)
         if self.points is None or not np.array_equal(self.node_tags, np.arange(1, n + 1)):
             return None
-        tets = [rows[:, 1:] for kind, rows in self.blocks if kind == TETRAHEDRON]
-        if not tets or any(t.shape[1] != 4 for t in tets):
+        cells = [rows[:, 1:] for k, rows in self.blocks if k == kind]
+        if not cells or any(c.shape[1] != width for c in cells):
             return None
-        return self.points, np.concatenate(tets) - 1
+        return self.points, np.concatenate(cells) - 1
 
 
 def section(text: str, name: str) -> list[str] | None:

@@ -11,6 +11,10 @@ that silently wraps around, or an overflow far downstream.
   than two of them or by two on the same side of it (they would overlap), and so a
   boundary that is closed and consistently oriented, with at least one triangle;
 * triangle surfaces: at least one triangle, no triangle that repeats a vertex;
+* triangle meshes of a 2D scene: in the plane z = 0, every triangle of non-negligible
+  area (turned counter-clockwise where the file has it clockwise), no two with the same
+  three vertices, every edge in at most two triangles and on opposite sides of it (else
+  they overlap), so that the boundary is made of closed curves;
 * segments: none that joins a vertex to itself.
 """
 
@@ -23,12 +27,15 @@ import numpy as np
 from ..errors import MeshError
 from .gmsh import GmshText
 from .gmsh import parse as parse_gmsh
-from .surface import TET_FACES, _row_keys, boundary_triangles, tet_signed_volumes
+from .surface import (TET_FACES, _row_keys, boundary_triangles, tet_signed_volumes,
+                      triangle_signed_areas)
 
 __all__ = [
     "MAX_COORDINATE",
     "check_gmsh_tags",
     "check_indices",
+    "check_planar",
+    "check_triangle_mesh",
     "check_points",
     "check_segments",
     "check_tet_mesh",
@@ -167,6 +174,45 @@ def check_triangles(points: np.ndarray, triangles: np.ndarray, path, line) -> No
         i = int(np.flatnonzero(rep)[0])
         raise _err(path, line, f"{int(rep.sum())} degenerate triangles with a repeated vertex "
                                f"(first: face {i + 1})")
+
+
+def check_planar(points: np.ndarray, path, line) -> None:
+    """A 2D scene's mesh lies in the plane z = 0."""
+    off = points[:, 2] != 0.0
+    if off.any():
+        i = int(np.flatnonzero(off)[0])
+        raise _err(path, line, f"{int(off.sum())} vertices are off the plane z = 0 (first: "
+                               f"vertex {i + 1}, z = {points[i, 2]!r}); a 2D scene's meshes "
+                               "lie in that plane")
+
+
+def check_triangle_mesh(points: np.ndarray, triangles: np.ndarray, path, line) -> np.ndarray:
+    """The triangles of a 2D body (module docstring), returned counter-clockwise."""
+    if len(triangles) == 0:
+        raise _err(path, line, "no triangles in mesh")
+    area2 = 2.0 * triangle_signed_areas(points, triangles)
+    x = points[triangles][:, :, :2]
+    longest = np.linalg.norm(x - np.roll(x, 1, axis=1), axis=2).max(axis=1)
+    flat = np.abs(area2) <= 1e-12 * longest**2
+    if flat.any():
+        i = int(np.flatnonzero(flat)[0])
+        raise _err(path, line, f"{int(flat.sum())} triangles have zero area (first: triangle "
+                               f"{i + 1}, vertices {(triangles[i] + 1).tolist()})")
+    tris = np.where((area2 < 0)[:, None], triangles[:, [0, 2, 1]], triangles)
+    _, first, counts = np.unique(_row_keys(np.sort(tris, axis=1)), return_index=True,
+                                 return_counts=True)
+    if (counts > 1).any():
+        dup = int(np.sort(first[counts > 1])[0])
+        raise _err(path, line, f"{int((counts - 1).sum())} triangles repeat another one's "
+                               f"three vertices (first: triangle {dup + 1})")
+    directed = np.stack([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]],
+                        axis=1).reshape(-1, 2)
+    _, counts = np.unique(_row_keys(directed), return_counts=True)
+    _, undirected = np.unique(_row_keys(np.sort(directed, axis=1)), return_counts=True)
+    if (counts > 1).any() or (undirected > 2).any():
+        raise _err(path, line, "triangles overlap: an edge is shared by more than two "
+                               "triangles, or by two on the same side of it")
+    return np.ascontiguousarray(tris, dtype=np.int64)
 
 
 def check_segments(edges: np.ndarray, path, line) -> None:

@@ -11,7 +11,9 @@ Formats (docs/ipc-scene-format.md §6):
 * ``.seg`` segments (``v x y z`` / ``s i j``, 1-based; missing file -> unique edges of the
   ``.obj`` of the same stem) and ``.pt`` points (``v`` lines; missing -> the ``.obj``'s
   vertices);
-* the original's ``status<n>`` restart files.
+* the original's ``status<n>`` restart files;
+* 2D scenes: triangle meshes in the plane z = 0 (``.msh`` with 3-node triangles, ``.obj``),
+  and ``.seg`` / ``.pt`` files in that plane (``read_shape_2d``).
 
 Every reader takes ``(path, line)``: ``line`` is the scene line that asked for the file and
 is carried into the ``MeshError`` so a user sees which shape failed.
@@ -32,15 +34,18 @@ from .gmsh import parse as parse_gmsh
 from .mesh_check import (
     check_gmsh_tags,
     check_indices,
+    check_planar,
     check_points,
     check_segments,
     check_tet_mesh,
+    check_triangle_mesh,
     check_triangles,
 )
 from .surface import unique_edges, unique_undirected
 
 __all__ = ["check_triangles", "read_frame_positions", "read_obj", "read_pt", "read_seg",
-           "read_shape", "read_status", "read_tet_mesh", "read_tetgen"]
+           "read_shape", "read_shape_2d", "read_status", "read_tet_mesh", "read_tetgen",
+           "read_triangle_mesh"]
 
 # `v x y z` and `s i j` records of OBJ-like text files (one match per line, in C via re)
 _V_RE = re.compile(r"^[ \t]*v[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)", re.M)
@@ -349,6 +354,49 @@ def read_shape(path, kind: str, line: int | None = None) -> dict[str, np.ndarray
     if kind == "points":
         return {"points": read_pt(path, line)}
     raise _err(path, line, f"unsupported mesh kind {kind!r}")
+
+
+def read_triangle_mesh(path, line: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """A 2D body: (points (n, 3) with z = 0, triangles (m, 3) int64 counter-clockwise),
+    from an ``.msh`` (MSH 4.1 ASCII by ``gmsh.py``, else meshio's 3-node triangles) or an
+    ``.obj``. Vertices used by no triangle are dropped; ``mesh_check`` refuses the rest."""
+    path = Path(path)
+    if path.suffix.lower() == ".obj":
+        points, triangles = read_obj(path, line)
+    else:
+        parsed = _gmsh_text(path)
+        if parsed is not None:
+            check_gmsh_tags(path, line, parsed)
+        own = parsed.triangles() if parsed is not None else None
+        if own is not None:
+            points, triangles = check_points(own[0], path, line), own[1]
+        else:
+            mesh = _meshio_read(path, line, "gmsh")
+            blocks = [c.data for c in mesh.cells if c.type == "triangle"]
+            if not blocks:
+                kinds = sorted({c.type for c in mesh.cells})
+                raise _err(path, line, "no triangles in mesh (cells: "
+                                       f"{', '.join(kinds) or 'none'}); a 2D scene's bodies "
+                                       "are 3-node triangles")
+            points = check_points(mesh.points, path, line)
+            triangles = np.concatenate(blocks).astype(np.int64)
+    triangles = check_indices(triangles, len(points), path, line, "triangle")
+    points, triangles = _drop_unreferenced(points, triangles)
+    check_planar(points, path, line)
+    return points, check_triangle_mesh(points, triangles, path, line)
+
+
+def read_shape_2d(path, kind: str, line: int | None = None) -> dict[str, np.ndarray]:
+    """``read_shape`` for a 2D scene: kind 'triangles', 'segments' or 'points', every
+    vertex in the plane z = 0."""
+    if kind == "triangles":
+        points, triangles = read_triangle_mesh(path, line)
+        return {"points": points, "triangles": triangles}
+    if kind not in ("segments", "points"):
+        raise _err(path, line, f"unsupported mesh kind {kind!r} in a 2D scene")
+    data = read_shape(path, kind, line)
+    check_planar(data["points"], path, line)
+    return data
 
 
 def read_frame_positions(path, ext: str, line: int | None = None) -> np.ndarray:

@@ -15,7 +15,7 @@ import math
 from pathlib import Path
 from typing import ClassVar
 
-from msgspec import Struct
+from msgspec import Struct, field
 from msgspec.structs import force_setattr
 import numpy as np
 
@@ -195,8 +195,15 @@ _ARRAY_FIELDS = (
     "rest_volumes", "Dm_inv", "lame", "mass", "vertex_shape", "shape_offsets",
     "surface_triangles", "triangle_shape", "surface_edges", "edge_shape",
     "surface_vertices", "plane_origins", "plane_normals", "plane_friction", "always_kinematic",
-    "elastic_tets", "gravity",
+    "elastic_tets", "gravity", "plane_velocities", "plane_limits", "tri_elements",
+    "tri_element_shape", "tri_rest_areas", "tri_Dm_inv", "tri_lame", "elastic_tri_elements",
+    "springs", "spring_shape", "spring_rest_length_sq", "spring_stiffness", "elastic_springs",
+    "node_contact_length",
 )
+
+
+def _empty(*shape, dtype=np.float64):
+    return field(default_factory=lambda: np.zeros(shape, dtype=dtype))
 
 
 class Model(Struct, frozen=True, eq=False):
@@ -267,6 +274,30 @@ class Model(Struct, frozen=True, eq=False):
 
     # contact as constraints of the SQP / QP baselines (None: IPC's barrier)
     constraint_solver: ConstraintSolverSettings | None = None
+
+    # moving planes (2D scenes): the origin moves at its velocity while (limit − origin)·v
+    # > 0 at a step's start; (p, 3) each (limits NaN: none), empty where the builder set
+    # no motion (all planes still)
+    plane_velocities: np.ndarray = _empty(0, 3)
+    plane_limits: np.ndarray = _empty(0, 3)
+
+    # 2D scenes (dimension 2): everything lies in the plane z = 0 (positions stay (n, 3),
+    # z = 0); the bodies are triangles (plane strain) or springs, and their boundary edges
+    # (in surface_edges, outward normal on the right of each) and vertices collide
+    dimension: int = 3
+    tri_elements: np.ndarray = _empty(0, 3, dtype=np.int64)  # (t, 3) counter-clockwise
+    tri_element_shape: np.ndarray = _empty(0, dtype=np.int64)  # (t,)
+    tri_rest_areas: np.ndarray = _empty(0)  # (t,) > 0
+    tri_Dm_inv: np.ndarray = _empty(0, 2, 2)  # (t, 2, 2) inverse of [x1 − x0, x2 − x0], rest
+    tri_lame: np.ndarray = _empty(0, 2)  # (t, 2) (mu, lambda): plane strain
+    elastic_tri_elements: np.ndarray = _empty(0, dtype=bool)  # (t,) simulated, with elasticity
+    springs: np.ndarray = _empty(0, 2, dtype=np.int64)  # (k, 2) mass-spring shapes' springs
+    spring_shape: np.ndarray = _empty(0, dtype=np.int64)  # (k,)
+    spring_rest_length_sq: np.ndarray = _empty(0)  # (k,) l²
+    spring_stiffness: np.ndarray = _empty(0)  # (k,) k of E = ½ k l² (|d|²/l² − 1)²
+    elastic_springs: np.ndarray = _empty(0, dtype=bool)  # (k,) springs of simulated shapes
+    node_contact_length: np.ndarray = _empty(0)  # (n,) half the boundary edges at a vertex
+    contact_barrier: str = "ipc"  # "lecture": its barrier, weighted by node_contact_length
 
     def __post_init__(self):
         _freeze(self, _ARRAY_FIELDS)

@@ -1,4 +1,5 @@
-"""Surface extraction: boundary triangles of tet meshes and unique edges of triangle sets.
+"""Surface extraction: boundary triangles of tet meshes, boundary edges of triangle meshes
+(the collision "surface" of a 2D body) and unique edges of triangle sets.
 
 Everything here is vectorised with sort + unique; no Python loop per face.
 
@@ -64,6 +65,23 @@ def boundary_triangles(tets: np.ndarray) -> np.ndarray:
     return faces[on_boundary]
 
 
+def boundary_edges(triangles: np.ndarray) -> np.ndarray:
+    """Boundary edges (k, 2) int64 of a triangle mesh (m, 3) in the plane: the edges that
+    one triangle alone uses, each directed as in its triangle, so that a counter-clockwise
+    triangle has its interior on the left of the edge and the outward normal (dy, −dx) on
+    its right. In triangle order (triangle 0's boundary edges first), each triangle's
+    edges in the order (0, 1), (1, 2), (2, 0)."""
+    triangles = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    if len(triangles) == 0:
+        return np.zeros((0, 2), dtype=np.int64)
+    # edge k of triangle t at row 3t + k
+    edges = np.stack([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]],
+                     axis=1).reshape(-1, 2)
+    _, inverse, counts = np.unique(_row_keys(np.sort(edges, axis=1)), return_inverse=True,
+                                   return_counts=True)
+    return edges[counts[inverse] == 1]
+
+
 def unique_edges(triangles: np.ndarray) -> np.ndarray:
     """Unique undirected edges (e, 2) int64 of a triangle set, each as (i, j) with i < j,
     sorted lexicographically."""
@@ -112,6 +130,17 @@ def enclosed_volume(points: np.ndarray, triangles: np.ndarray) -> float:
     apex = np.vstack([p, np.zeros((1, 3))])
     tets = np.column_stack([np.full(len(t), len(p), dtype=np.int64), t])
     return float(tet_signed_volumes(apex, tets).sum())
+
+
+def triangle_signed_areas(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Signed areas (m,) of triangles in the plane z = 0: A = det[x1 − x0, x2 − x0] / 2 of
+    their x, y parts (``kernels.algebra.linalg.triangle_signed_areas``, for any
+    array-like input)."""
+    from ..kernels.algebra.linalg import triangle_signed_areas as kernel  # numba: on use
+
+    p = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    t = np.ascontiguousarray(triangles, dtype=np.int64).reshape(-1, 3)
+    return kernel(p, t)
 
 
 def tet_signed_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:

@@ -6,6 +6,14 @@ scene files) and become radians in the model. Parameters documented as *relative
 multiplied by l, the rest bounding-box diagonal of all tet shapes, when the model is built
 (unless ``use_abs_parameters``).
 
+A 2D scene (``dimension = 2``, TOML only) lies in the plane z = 0 and is held in the same
+records: its vectors have z = 0 (a scale's z is 1), its rotations turn about z
+(``rotation_deg = (0, 0, angle)``), its shapes are triangle meshes (kind "triangles"),
+generated rectangles ("rectangle", ``ShapeSpec.rectangle``), kinematic segments or points;
+its planes are lines (normals with z = 0), which may move (``PlaneSpec.velocity``, up to
+``limit``). ``node_masses`` and ``contact_barrier`` select the lecture's conventions
+(uniform node masses; its area-weighted barrier) instead of the paper's.
+
 The fields a record names in ``provenance`` say where something came from (file, line,
 the path as written); two scenes that mean the same simulation compare equal
 (``records.ByMeaning``).
@@ -62,6 +70,13 @@ SUPPORTED_SCRIPTS = (
 # Mesh kind by file extension; "tet" shapes are simulated, the others kinematic.
 MESH_KINDS = {".msh": "tet", ".vtk": "tet", ".vtu": "tet", ".ele": "tet", "": "tet",
               ".obj": "surface", ".seg": "segments", ".pt": "points"}
+# ... in a 2D scene: triangle meshes in the plane are simulated
+MESH_KINDS_2D = {".msh": "triangles", ".obj": "triangles", ".seg": "segments",
+                 ".pt": "points"}
+SIMULATED_KINDS = ("tet", "triangles", "rectangle")  # the kinds that are elastic bodies
+DIMENSIONS = (2, 3)
+NODE_MASSES = ("lumped", "uniform")  # by element area or volume; each shape's mass evenly
+CONTACT_BARRIERS = ("ipc", "lecture")  # the paper's barrier; the lecture's (area-weighted)
 
 
 class MaterialSpec(Struct, frozen=True):
@@ -102,11 +117,19 @@ class InitialVelocitySpec(Struct, frozen=True):
     angular_deg: Vec3  # deg/s about the shape's initial AABB centre
 
 
+class RectangleSpec(Struct, frozen=True):
+    """A generated rectangle of a 2D scene (``model.generate.rectangle_mesh``): ``size``
+    (width, height) centred on the origin, ``resolution`` (nx, ny) cells of two triangles."""
+
+    size: tuple[float, float]
+    resolution: tuple[int, int]
+
+
 class ShapeSpec(ByMeaning, Struct, frozen=True):
     """One shape line: a mesh file placed by p = R(rx,ry,rz) (s * p_file) + t."""
     provenance: ClassVar[tuple[str, ...]] = ("path", "line")
 
-    mesh_path: Path  # resolved, absolute
+    mesh_path: Path | None = None  # resolved, absolute (None: a generated rectangle)
     translation: Vec3 = (0.0, 0.0, 0.0)
     rotation_deg: Vec3 = (0.0, 0.0, 0.0)
     scale: Vec3 = (1.0, 1.0, 1.0)
@@ -122,11 +145,24 @@ class ShapeSpec(ByMeaning, Struct, frozen=True):
     mesh_kind: str | None = None
     path: str = ""  # as written in the scene
     line: int | None = None
+    rectangle: RectangleSpec | None = None  # 2D: generated instead of read
+    spring_stiffness: float | None = None  # 2D: a mass-spring network, springs of this k
 
     @property
     def kind(self) -> str:
-        """'tet' (simulated), 'surface', 'segments' or 'points' (kinematic)."""
+        """'tet' (simulated), 'surface', 'segments' or 'points' (kinematic); in a 2D
+        scene 'triangles' or 'rectangle' (simulated), 'segments' or 'points'."""
+        if self.rectangle is not None:
+            return "rectangle"
         return self.mesh_kind or MESH_KINDS[self.mesh_path.suffix.lower()]
+
+    @property
+    def label(self) -> str:
+        """The shape as messages name it: its path as written, else its file name, or
+        ``rectangle`` for a generated one."""
+        if self.rectangle is not None:
+            return "rectangle"
+        return self.path or self.mesh_path.name
 
 
 class PlaneSpec(ByMeaning, Struct, frozen=True):
@@ -139,6 +175,8 @@ class PlaneSpec(ByMeaning, Struct, frozen=True):
     friction: float = 0.0
     stiffness: float = 0.0  # read and ignored, as in the original
     line: int | None = None
+    velocity: Vec3 = (0.0, 0.0, 0.0)  # 2D: the origin moves at this velocity (m/s) ...
+    limit: Vec3 | None = None  # ... while (limit − origin)·velocity > 0 at a step's start
 
 
 class MeshObstacleSpec(ByMeaning, Struct, frozen=True):
@@ -164,6 +202,7 @@ class SceneSpec(ByMeaning, Struct, frozen=True):
     shapes: tuple[ShapeSpec, ...] = ()
     planes: tuple[PlaneSpec, ...] = ()
     mesh_obstacles: tuple[MeshObstacleSpec, ...] = ()
+    dimension: int = 3  # 2: the scene lies in the plane z = 0 (module docstring)
 
     # time
     duration: float = 5.0
@@ -176,6 +215,7 @@ class SceneSpec(ByMeaning, Struct, frozen=True):
     youngs_modulus: float = 1e5
     poisson_ratio: float = 0.4
     energy: str = "NH"
+    node_masses: str = "lumped"  # 2D: or "uniform", each shape's mass split evenly
 
     # integrator
     integrator: str = "BE"
@@ -185,6 +225,7 @@ class SceneSpec(ByMeaning, Struct, frozen=True):
     damping_ratio: float = 0.0
     warm_start: int = 0
     gravity: bool = True
+    gravity_acceleration: Vec3 | None = None  # 2D: instead of (0, −9.80665, 0) m/s²
 
     # contact and accuracy; dhat, epsv, dtol and newton_tol are relative to l
     self_collision: bool = True
@@ -206,6 +247,7 @@ class SceneSpec(ByMeaning, Struct, frozen=True):
     active_set_convergence: bool = False  # SQP / QP: iterate until no constraint is added
     contact_formulation: str = "barrier"  # beyond the original: "penalty" for baselines
     penalty_stiffness: float = 0.0  # N/m per pair, with the penalty formulation
+    contact_barrier: str = "ipc"  # 2D: or "lecture", its area-weighted barrier
     linear_solver: str | None = None  # None: the fastest installed
 
     # boundary-condition gates and legacy scene switches

@@ -2,23 +2,32 @@
 
 Schema (docs/scene-format.md is the user's reference)::
 
-    [scene]       gravity, script, script_params, handle_ratio, size, rotate_model, restart,
-                  dbc_time_range, nbc_time_range
+    [scene]       dimension (3 or 2), gravity, gravity_acceleration (2D), script,
+                  script_params, handle_ratio, size, rotate_model, restart, dbc_time_range,
+                  nbc_time_range
     [time]        duration, dt, tolerance
-    [material]    density, youngs_modulus, poisson_ratio, energy
+    [material]    density, youngs_modulus, poisson_ratio, energy, node_masses (2D)
     [integrator]  type, newmark_beta, newmark_gamma, damping_stiff, damping_ratio, warm_start
     [contact]     self_collision, self_friction, kappa ("adaptive" or a number),
                   kappa_min_multiplier, dhat, dhat_start, dhat_abs, epsv, epsv_abs, dtol,
-                  friction_iterations, use_abs_parameters
+                  friction_iterations, use_abs_parameters, barrier (2D: "ipc", "lecture")
     [solver]      newton_tol, constraint_solver ("interiorPoint", "SQP", "QP"), constraint_type,
                   constraint_offset, active_set_convergence, linear_solver ("auto" or a name)
     [output]      append_str, playback_speed
     [[shapes]]    path, kind, translation, rotation_deg, scale, material = {...},
                   linear_velocity, angular_velocity_deg, init_velocity = {...},
-                  mesh_sequence, matrix = {counts, spacing}, [[shapes.dbc]], [[shapes.nbc]]
+                  mesh_sequence, matrix = {counts, spacing}, [[shapes.dbc]], [[shapes.nbc]];
+                  2D: kind = "rectangle" with size, resolution (no path); spring_stiffness
     [[planes]]    kind = "ground" (friction, height) | "halfSpace" (origin, normal,
-                  stiffness, friction)
+                  stiffness, friction); 2D: velocity, limit
     [[mesh_obstacles]]  path, position, size, stiffness, friction, rotation_deg
+
+In a 2D scene (``[scene] dimension = 2``) positions, velocities, accelerations, box corners,
+plane origins and normals and a shape's scale have two numbers (x, y), and rotations and
+angular velocities are one number (degrees, about z). Keys that have no 2D meaning
+(scripts, ``rotate_model``, ``restart``, mesh sequences, ``meshCO`` obstacles, the SQP/QP
+baselines, the penalty formulation) are refused naming the key, as are the 2D keys in a
+3D scene (``validate.py`` checks the values, this reader the keys and their shapes).
 
 Every key is optional unless marked required below; unknown keys and wrong types are
 ``SceneError``s naming the key path (``shapes[1].dbc[0].velocty``) and, as far as it can be
@@ -36,17 +45,22 @@ from msgspec.structs import replace
 from ..errors import SceneError, excerpt as _q
 from . import paths
 from .spec import (
+    CONTACT_BARRIERS,
     CONTACT_FORMULATIONS,
     DEFAULTS,
+    DIMENSIONS,
     INF,
     INTEGRATORS,
     MESH_KINDS,
+    MESH_KINDS_2D,
+    NODE_MASSES,
     DirichletSpec,
     InitialVelocitySpec,
     MaterialSpec,
     MeshObstacleSpec,
     NeumannSpec,
     PlaneSpec,
+    RectangleSpec,
     SceneSpec,
     ShapeSpec,
 )
@@ -56,6 +70,7 @@ from .validate import LINEAR_SOLVERS, line_of, validate_scene
 __all__ = []
 
 _MAX_MATRIX_COPIES = 100_000
+_MAX_RECTANGLE_CELLS = 10_000_000
 
 # ----------------------------------------------------------------------------- key lines
 
@@ -148,6 +163,7 @@ class _Reader:
         self.text = text
         self.lines: dict[str, int] = {}
         self.warnings: list[str] = []
+        self.dimension = 3
 
     def fail(self, key: str, message: str):
         raise SceneError(self.source, line_of(self.lines, key), message)
@@ -214,6 +230,40 @@ class _Reader:
     def vec3(self, v, key):
         return self.numbers(v, key, 3)
 
+    # vectors of the scene's dimension, held as 3-vectors (a 2D scene's z is 0) --------------
+
+    def point(self, v, key):
+        """A position, velocity or acceleration: (x, y, z), or (x, y) in a 2D scene."""
+        if self.dimension == 3:
+            return self.vec3(v, key)
+        if isinstance(v, list) and len(v) != 2:
+            self.fail(key, f"{key} must have 2 numbers (x, y) in a 2D scene, got {len(v)}")
+        x, y = self.numbers(v, key, 2)
+        return (x, y, 0.0)
+
+    def scale_vector(self, v, key):
+        """A shape's scale: (sx, sy, sz), or (sx, sy) in a 2D scene (sz = 1)."""
+        if self.dimension == 3:
+            return self.vec3(v, key)
+        x, y, _ = self.point(v, key)
+        return (x, y, 1.0)
+
+    def angles(self, v, key):
+        """Rotation angles (degrees) or angular velocities (deg/s): about x, y and z, or
+        in a 2D scene one number, about z."""
+        if self.dimension == 3:
+            return self.vec3(v, key)
+        if not _is_num(v):
+            self.fail(key, f"{key} must be one number (degrees about z) in a 2D scene, got "
+                           f"{_type_name(v)}")
+        return (0.0, 0.0, self.number(v, key))
+
+    def zero_point(self):
+        return [0.0] * self.dimension
+
+    def zero_angles(self):
+        return [0.0] * 3 if self.dimension == 3 else 0.0
+
     def time_range(self, v, key) -> tuple[float, float]:
         return self.numbers(v, key, 2, inf_last=True)  # type: ignore[return-value]
 
@@ -260,6 +310,11 @@ class _Reader:
         validated; ``self.lines`` names the lines where they are known."""
         self.table(doc, "", _TOP)
         v: dict = {}
+        scene = doc.get("scene")
+        if isinstance(scene, dict) and "dimension" in scene:
+            self.dimension = self.value(scene["dimension"], "scene.dimension", "dimension")
+        if self.dimension == 2:
+            self.refuse_3d_only(doc)
         for table, keys in _SIMPLE.items():
             if table not in doc:
                 continue
@@ -283,6 +338,20 @@ class _Reader:
         more = validate_scene(spec, source=self.source, lines=self.lines, fmt="toml")
         return replace(spec, warnings=tuple(self.warnings) + more,
                        key_lines=dict(self.lines))
+
+    def refuse_3d_only(self, doc: dict) -> None:
+        """A 2D scene: fail on the first key that has no 2D meaning."""
+        for table, keys in _NOT_2D.items():
+            data = doc.get(table)
+            if isinstance(data, dict):
+                for k in keys:
+                    if k in data:
+                        self.fail(f"{table}.{k}", f"{table}.{k}: {_NOT_2D_WHY[k]} "
+                                                  "(this is a 2D scene)")
+        if doc.get("mesh_obstacles"):
+            self.fail("mesh_obstacles", "mesh_obstacles: meshCO obstacles are 3D triangle "
+                                        "meshes; a 2D scene's obstacles are .seg shapes or "
+                                        "shapes that move (this is a 2D scene)")
 
     def value(self, v, key: str, kind: str):
         if kind == "float":
@@ -327,18 +396,94 @@ class _Reader:
             return s.lower()
         if kind == "restart":
             return self.path(v, key, "restart file")
+        if kind == "point":
+            return self.point(v, key)
+        if kind == "dimension":
+            if self.integer(v, key) not in DIMENSIONS:
+                self.fail(key, f"{key} must be 2 or 3, got {v}")
+            return v
+        if kind == "node_masses":
+            return self.choice(v, key, NODE_MASSES)
+        if kind == "barrier":
+            return self.choice(v, key, CONTACT_BARRIERS)
         raise AssertionError(kind)
 
     def shapes(self, data) -> tuple[ShapeSpec, ...]:
         out: list[ShapeSpec] = []
         for k, t in enumerate(self.tables(data, "shapes")):
             key = f"shapes[{k}]"
-            self.table(t, key, _SHAPE_KEYS, required=("path",))
+            rectangle = t.get("kind") == "rectangle"
+            self.table(t, key, _SHAPE_KEYS, required=() if rectangle else ("path",))
+            self.check_shape_keys(t, key)
             if "matrix" in t:
                 out.extend(self.matrix(t, key))
                 continue
             out.append(self.shape(t, key))
         return tuple(out)
+
+    def check_shape_keys(self, t: dict, key: str) -> None:
+        """The keys a shape of this scene's dimension may have."""
+        if self.dimension == 3:
+            extra = sorted(set(t) & {"size", "resolution", "spring_stiffness"})
+            if extra or t.get("kind") == "rectangle":
+                what = f"{key}.{extra[0]}" if extra else f"{key}.kind"
+                self.fail(what, f"{what}: generated rectangles and mass-spring shapes are "
+                                "2D ([scene] dimension = 2)")
+            return
+        if "mesh_sequence" in t:
+            self.fail(f"{key}.mesh_sequence", f"{key}.mesh_sequence: mesh sequences are "
+                                              "3D meshes (this is a 2D scene)")
+        if t.get("kind") == "rectangle":
+            for k in ("path", "matrix"):
+                if k in t:
+                    self.fail(f"{key}.{k}", f"{key}.{k}: a rectangle is generated from its "
+                                            "size and resolution (no path, no matrix)")
+            for k in ("size", "resolution"):
+                if k not in t:
+                    self.fail(key, f"{key} (kind = \"rectangle\") is missing the required "
+                                   f"key '{k}'")
+        else:
+            for k in ("size", "resolution"):
+                if k in t:
+                    self.fail(f"{key}.{k}", f"{key}.{k}: only a shape of kind = "
+                                            "\"rectangle\" has a size and a resolution")
+
+    def rectangle(self, t: dict, key: str) -> RectangleSpec:
+        size = self.numbers(t["size"], f"{key}.size", 2)
+        if not all(x > 0 for x in size):
+            self.fail(f"{key}.size", f"{key}.size {list(size)} must be two lengths > 0")
+        res = t["resolution"]
+        if not isinstance(res, list) or len(res) != 2:
+            self.fail(f"{key}.resolution", f"{key}.resolution must be an array of 2 "
+                                           f"integers (cells along x, y), got {_type_name(res)}")
+        res = tuple(self.integer(r, f"{key}.resolution[{a}]") for a, r in enumerate(res))
+        if min(res) < 1 or res[0] * res[1] > _MAX_RECTANGLE_CELLS:
+            self.fail(f"{key}.resolution", f"{key}.resolution {list(res)} must be >= 1 and "
+                                           f"make at most {_MAX_RECTANGLE_CELLS} cells")
+        return RectangleSpec(size, res)
+
+    def mesh_2d(self, t: dict, key: str) -> tuple[Path | None, str | None, str]:
+        """A 2D scene's shape: its mesh file and kind (\"triangles\", \"segments\",
+        \"points\"), or a generated rectangle (no file)."""
+        if t.get("kind") == "rectangle":
+            return None, None, ""
+        written = self.string(t["path"], f"{key}.path")
+        suffix = Path(written).suffix.lower()
+        if suffix not in MESH_KINDS_2D:
+            self.fail(f"{key}.path", f"{key}.path: a 2D scene's shapes are triangle meshes "
+                                     "(.msh, .obj with z = 0), segments (.seg), points (.pt) "
+                                     f"or kind = \"rectangle\"; got '{_q(suffix)}'")
+        found, _, written = self.mesh({**t, "kind": MESH_KINDS[suffix]}, key)
+        kind = MESH_KINDS_2D[suffix]
+        if "kind" in t:
+            kind = self.choice(t["kind"], f"{key}.kind", ("triangles", "rectangle",
+                                                          "segments", "points"))
+            if kind != MESH_KINDS_2D[suffix] and not (suffix == ".obj"
+                                                      and kind in ("segments", "points")):
+                self.fail(f"{key}.kind", f"{key}.kind {kind!r} does not fit the mesh "
+                                         f"'{_q(written)}' (only an .obj may be read as "
+                                         "\"segments\" or \"points\")")
+        return found, kind, written
 
     def mesh(self, t: dict, key: str) -> tuple[Path, str | None, str]:
         written = self.string(t["path"], f"{key}.path")
@@ -374,19 +519,26 @@ class _Reader:
         return found, mesh_kind, written
 
     def shape(self, t: dict, key: str) -> ShapeSpec:
-        mesh, mesh_kind, written = self.mesh(t, key)
+        mesh, mesh_kind, written = (self.mesh if self.dimension == 3 else self.mesh_2d)(t, key)
         f = {}
-        for name in ("translation", "rotation_deg", "scale", "linear_velocity",
-                     "angular_velocity_deg"):
+        readers = {"translation": self.point, "rotation_deg": self.angles,
+                   "scale": self.scale_vector, "linear_velocity": self.point,
+                   "angular_velocity_deg": self.angles}
+        for name, read in readers.items():
             if name in t:
-                f[name] = self.vec3(t[name], f"{key}.{name}")
+                f[name] = read(t[name], f"{key}.{name}")
+        if t.get("kind") == "rectangle" and self.dimension == 2:
+            f["rectangle"] = self.rectangle(t, key)
+        if "spring_stiffness" in t:
+            f["spring_stiffness"] = self.number(t["spring_stiffness"], f"{key}.spring_stiffness")
         if "material" in t:
             f["material"] = self.material(t["material"], f"{key}.material")
         if "init_velocity" in t:
             iv = self.table(t["init_velocity"], f"{key}.init_velocity", ("linear", "angular_deg"))
             f["init_velocity"] = InitialVelocitySpec(
-                self.vec3(iv.get("linear", [0.0] * 3), f"{key}.init_velocity.linear"),
-                self.vec3(iv.get("angular_deg", [0.0] * 3), f"{key}.init_velocity.angular_deg"))
+                self.point(iv.get("linear", self.zero_point()), f"{key}.init_velocity.linear"),
+                self.angles(iv.get("angular_deg", self.zero_angles()),
+                            f"{key}.init_velocity.angular_deg"))
         if "mesh_sequence" in t:
             f["mesh_sequence"] = self.path(t["mesh_sequence"], f"{key}.mesh_sequence",
                                            "mesh sequence folder", paths.is_dir)
@@ -395,9 +547,11 @@ class _Reader:
             dk = f"{key}.dbc[{j}]"
             self.table(d, dk, _DBC_KEYS, required=("box_min", "box_max"))
             dbc.append(DirichletSpec(
-                self.vec3(d["box_min"], f"{dk}.box_min"), self.vec3(d["box_max"], f"{dk}.box_max"),
-                self.vec3(d.get("linear_velocity", [0.0] * 3), f"{dk}.linear_velocity"),
-                self.vec3(d.get("angular_velocity_deg", [0.0] * 3), f"{dk}.angular_velocity_deg"),
+                self.point(d["box_min"], f"{dk}.box_min"),
+                self.point(d["box_max"], f"{dk}.box_max"),
+                self.point(d.get("linear_velocity", self.zero_point()), f"{dk}.linear_velocity"),
+                self.angles(d.get("angular_velocity_deg", self.zero_angles()),
+                            f"{dk}.angular_velocity_deg"),
                 self.time_range(d.get("time_range", [0.0, INF]), f"{dk}.time_range"),
                 line=line_of(self.lines, dk)))
         nbc = []
@@ -405,8 +559,9 @@ class _Reader:
             nk = f"{key}.nbc[{j}]"
             self.table(d, nk, _NBC_KEYS, required=("box_min", "box_max", "acceleration"))
             nbc.append(NeumannSpec(
-                self.vec3(d["box_min"], f"{nk}.box_min"), self.vec3(d["box_max"], f"{nk}.box_max"),
-                self.vec3(d["acceleration"], f"{nk}.acceleration"),
+                self.point(d["box_min"], f"{nk}.box_min"),
+                self.point(d["box_max"], f"{nk}.box_max"),
+                self.point(d["acceleration"], f"{nk}.acceleration"),
                 self.time_range(d.get("time_range", [0.0, INF]), f"{nk}.time_range"),
                 line=line_of(self.lines, nk)))
         return ShapeSpec(mesh_path=mesh, mesh_kind=mesh_kind, dbc=tuple(dbc), nbc=tuple(nbc),
@@ -416,7 +571,7 @@ class _Reader:
         """``matrix = {counts = [nx, ny, nz], spacing = [dx, dy, dz]}``: copies at
         translation + (dx i, dy j, dz k), x outer, y, z inner (the text's shapeMatrix)."""
         bad = sorted(set(t) - {"path", "kind", "translation", "rotation_deg", "scale",
-                               "material", "matrix"})
+                               "material", "matrix", "spring_stiffness"})
         if bad:
             self.fail(f"{key}.{bad[0]}", f"{key}.{_q(bad[0])}: a shape with `matrix` takes only "
                                          "path, kind, translation, rotation_deg, scale and "
@@ -425,14 +580,16 @@ class _Reader:
         m = self.table(t["matrix"], f"{key}.matrix", ("counts", "spacing"),
                        required=("counts", "spacing"))
         counts = m["counts"]
-        if not isinstance(counts, list) or len(counts) != 3:
-            self.fail(f"{key}.matrix.counts", f"{key}.matrix.counts must be an array of 3 "
+        d = self.dimension
+        if not isinstance(counts, list) or len(counts) != d:
+            self.fail(f"{key}.matrix.counts", f"{key}.matrix.counts must be an array of {d} "
                                               f"integers, got {_type_name(counts)}")
         counts = [self.integer(c, f"{key}.matrix.counts[{a}]") for a, c in enumerate(counts)]
         if any(c < 0 for c in counts) or math.prod(counts) > _MAX_MATRIX_COPIES:
             self.fail(f"{key}.matrix.counts", f"{key}.matrix.counts {counts} must be >= 0 and "
                                               f"make at most {_MAX_MATRIX_COPIES} copies")
-        spacing = self.vec3(m["spacing"], f"{key}.matrix.spacing")
+        counts += [1] * (3 - d)  # a 2D grid of copies: one layer
+        spacing = self.point(m["spacing"], f"{key}.matrix.spacing")
         base = self.shape({k: v for k, v in t.items() if k != "matrix"}, key)
         px, py, pz = base.translation
         return [replace(base, translation=(px + spacing[0] * i, py + spacing[1] * j,
@@ -449,6 +606,7 @@ class _Reader:
                            "\"halfSpace\")")
         kind = self.choice(t["kind"], f"{key}.kind", ("ground", "halfSpace"))
         line = line_of(self.lines, key)
+        motion = self.plane_motion(t, key)
         if kind == "ground":
             other = sorted(set(t) & {"origin", "normal", "stiffness"})
             if other:
@@ -456,20 +614,36 @@ class _Reader:
                                                "only friction and height (y = height, normal "
                                                "+y); use kind = \"halfSpace\" for a general "
                                                "plane")
-            self.table(t, key, ("kind", "friction", "height"), required=("height",))
+            self.table(t, key, ("kind", "friction", "height", *_PLANE_MOTION),
+                       required=("height",))
             return PlaneSpec("ground", (0.0, self.number(t["height"], f"{key}.height"), 0.0),
                              (0.0, 1.0, 0.0),
                              self.number(t.get("friction", 0.0), f"{key}.friction"), 0.0,
-                             line=line)
-        self.table(t, key, ("kind", "origin", "normal", "stiffness", "friction"),
-                   required=("origin", "normal"))
-        n = self.vec3(t["normal"], f"{key}.normal")
+                             line=line, **motion)
+        self.table(t, key, ("kind", "origin", "normal", "stiffness", "friction",
+                            *_PLANE_MOTION), required=("origin", "normal"))
+        n = self.point(t["normal"], f"{key}.normal")
         unit = unit_normal(n)
         if unit is None:
-            self.fail(f"{key}.normal", f"{key}.normal {list(n)} is the zero vector")
-        return PlaneSpec("halfSpace", self.vec3(t["origin"], f"{key}.origin"), unit,
+            self.fail(f"{key}.normal", f"{key}.normal {list(n[:self.dimension])} is the zero "
+                                       "vector")
+        return PlaneSpec("halfSpace", self.point(t["origin"], f"{key}.origin"), unit,
                          self.number(t.get("friction", 0.0), f"{key}.friction"),
-                         self.number(t.get("stiffness", 0.0), f"{key}.stiffness"), line=line)
+                         self.number(t.get("stiffness", 0.0), f"{key}.stiffness"), line=line,
+                         **motion)
+
+    def plane_motion(self, t: dict, key: str) -> dict:
+        """A 2D plane's ``velocity`` and ``limit`` (none in a 3D scene)."""
+        given = [k for k in _PLANE_MOTION if k in t]
+        if given and self.dimension == 3:
+            self.fail(f"{key}.{given[0]}", f"{key}.{given[0]}: moving planes are 2D ([scene] "
+                                           "dimension = 2)")
+        motion = {}
+        if "velocity" in t:
+            motion["velocity"] = self.point(t["velocity"], f"{key}.velocity")
+        if "limit" in t:
+            motion["limit"] = self.point(t["limit"], f"{key}.limit")
+        return motion
 
     def obstacle(self, t: dict, key: str) -> MeshObstacleSpec:
         self.table(t, key, ("path", "position", "size", "stiffness", "friction",
@@ -491,7 +665,9 @@ class _Reader:
 # table -> key -> (SceneSpec field, kind)
 _SIMPLE: dict[str, dict[str, tuple[str, str]]] = {
     "scene": {
+        "dimension": ("dimension", "dimension"),
         "gravity": ("gravity", "bool"),
+        "gravity_acceleration": ("gravity_acceleration", "point"),
         "script": ("script", "str"),
         "script_params": ("script_params", "floats"),
         "handle_ratio": ("handle_ratio", "float"),
@@ -508,6 +684,7 @@ _SIMPLE: dict[str, dict[str, tuple[str, str]]] = {
         "youngs_modulus": ("youngs_modulus", "float"),
         "poisson_ratio": ("poisson_ratio", "float"),
         "energy": ("energy", "energy"),
+        "node_masses": ("node_masses", "node_masses"),
     },
     "integrator": {
         "type": ("integrator", "integrator"),
@@ -532,6 +709,7 @@ _SIMPLE: dict[str, dict[str, tuple[str, str]]] = {
         "use_abs_parameters": ("use_abs_parameters", "bool"),
         "formulation": ("contact_formulation", "formulation"),
         "penalty_stiffness": ("penalty_stiffness", "float"),
+        "barrier": ("contact_barrier", "barrier"),
     },
     "solver": {
         "newton_tol": ("newton_tol", "tol"),
@@ -549,7 +727,28 @@ _SIMPLE: dict[str, dict[str, tuple[str, str]]] = {
 _TOP = (*_SIMPLE, "shapes", "planes", "mesh_obstacles")
 _SHAPE_KEYS = ("path", "kind", "translation", "rotation_deg", "scale", "material",
                "linear_velocity", "angular_velocity_deg", "init_velocity", "mesh_sequence",
-               "matrix", "dbc", "nbc")
+               "matrix", "dbc", "nbc", "size", "resolution", "spring_stiffness")
+_PLANE_MOTION = ("velocity", "limit")
+# the keys of the simple tables that a 2D scene refuses, and why
+_NOT_2D = {
+    "scene": ("script", "script_params", "handle_ratio", "rotate_model", "restart"),
+    "solver": ("constraint_solver", "constraint_type", "constraint_offset",
+               "active_set_convergence"),
+    "contact": ("formulation", "penalty_stiffness"),
+}
+_NOT_2D_WHY = {
+    "script": "the original's legacy scripts are 3D scenes",
+    "script_params": "the original's legacy scripts are 3D scenes",
+    "handle_ratio": "the original's legacy scripts are 3D scenes",
+    "rotate_model": "rotate_model turns about a 3D axis; turn the shapes (rotation_deg)",
+    "restart": "the original's restart files are 3D",
+    "constraint_solver": "the SQP and QP baselines are 3D",
+    "constraint_type": "the SQP and QP baselines are 3D",
+    "constraint_offset": "the SQP and QP baselines are 3D",
+    "active_set_convergence": "the SQP and QP baselines are 3D",
+    "formulation": "the penalty baseline is 3D",
+    "penalty_stiffness": "the penalty baseline is 3D",
+}
 _DBC_KEYS = ("box_min", "box_max", "linear_velocity", "angular_velocity_deg", "time_range")
 _NBC_KEYS = ("box_min", "box_max", "acceleration", "time_range")
 _MATERIAL_KEYS = ("density", "youngs_modulus", "poisson_ratio")

@@ -1,5 +1,11 @@
 """TOML scenes: the writer (``format_toml``, ``scene_to_dict``), every default written
 out, whose text ``toml_reader.parse_toml`` reads back to the same scene.
+
+A 2D scene is written in its own terms (``[scene] dimension = 2``, vectors of two numbers,
+rotations about z as one number, its own keys with their defaults written out, none of
+the keys it refuses). A 3D scene's text has no ``dimension`` and none of the 2D keys: it
+is what it was before 2D scenes existed, so the inputs digest of a 3D run, which is taken
+over this text (``digest.py``), has not changed.
 """
 
 from __future__ import annotations
@@ -26,6 +32,8 @@ def scene_to_dict(spec: SceneSpec, folder: Path, name_path=None) -> dict:
     when given, writes the paths instead (the input digest names files by content)."""
     s = spec
     rel = name_path or (lambda p: paths.relative_for_writing(p, folder))
+    if s.dimension == 2:
+        return _scene_to_dict_2d(s, rel)
     doc: dict = {
         "scene": _scene_table(s, rel),
         "time": {"duration": float(s.duration), "dt": float(s.dt),
@@ -54,6 +62,84 @@ def scene_to_dict(spec: SceneSpec, folder: Path, name_path=None) -> dict:
          "stiffness": float(m.stiffness), "friction": float(m.friction),
          "rotation_deg": _v3(m.rotation_deg)} for m in s.mesh_obstacles]
     return doc
+
+
+def _scene_to_dict_2d(s: SceneSpec, rel) -> dict:
+    """``scene_to_dict`` of a 2D scene (module docstring)."""
+    contact = {k: v for k, v in _contact_table(s).items()
+               if k not in ("formulation", "penalty_stiffness")}
+    contact["barrier"] = s.contact_barrier
+    doc: dict = {
+        "scene": {"dimension": 2, "gravity": s.gravity, "size": float(s.size),
+                  "dbc_time_range": _v3(s.dbc_time_range),
+                  "nbc_time_range": _v3(s.nbc_time_range)},
+        "time": {"duration": float(s.duration), "dt": float(s.dt)},
+        "material": {"density": float(s.density), "youngs_modulus": float(s.youngs_modulus),
+                     "poisson_ratio": float(s.poisson_ratio), "energy": s.energy,
+                     "node_masses": s.node_masses},
+        "integrator": {"type": s.integrator, "newmark_beta": float(s.newmark_beta),
+                       "newmark_gamma": float(s.newmark_gamma),
+                       "damping_stiff": float(s.damping_stiff),
+                       "damping_ratio": float(s.damping_ratio),
+                       "warm_start": int(s.warm_start)},
+        "contact": contact,
+        "solver": {"newton_tol": [float(x) for x in s.newton_tol],
+                   "linear_solver": s.linear_solver or "auto"},
+        "output": {"append_str": s.append_str, "playback_speed": float(s.playback_speed)},
+    }
+    if s.gravity_acceleration is not None:
+        doc["scene"]["gravity_acceleration"] = _v2(s.gravity_acceleration)
+    doc["shapes"] = [_shape_table_2d(sh, rel) for sh in s.shapes]
+    doc["planes"] = [_plane_table_2d(p) for p in s.planes]
+    return doc
+
+
+def _v2(v) -> list[float]:
+    return [float(v[0]), float(v[1])]
+
+
+def _shape_table_2d(sh: ShapeSpec, rel) -> dict:
+    if sh.rectangle is not None:
+        t: dict = {"kind": "rectangle", "size": _v2(sh.rectangle.size),
+                   "resolution": [int(n) for n in sh.rectangle.resolution]}
+    else:
+        t = {"path": rel(sh.mesh_path), "kind": sh.kind}
+    t.update(translation=_v2(sh.translation), rotation_deg=float(sh.rotation_deg[2]),
+             scale=_v2(sh.scale))
+    if sh.spring_stiffness is not None:
+        t["spring_stiffness"] = float(sh.spring_stiffness)
+    if sh.material is not None:
+        m = sh.material
+        t["material"] = {"density": float(m.density),
+                         "youngs_modulus": float(m.youngs_modulus),
+                         "poisson_ratio": float(m.poisson_ratio)}
+    if sh.linear_velocity is not None:
+        t["linear_velocity"] = _v2(sh.linear_velocity)
+    if sh.angular_velocity_deg is not None:
+        t["angular_velocity_deg"] = float(sh.angular_velocity_deg[2])
+    if sh.init_velocity is not None:
+        t["init_velocity"] = {"linear": _v2(sh.init_velocity.linear),
+                              "angular_deg": float(sh.init_velocity.angular_deg[2])}
+    if sh.dbc:
+        t["dbc"] = [{"box_min": _v2(d.box_min), "box_max": _v2(d.box_max),
+                     "linear_velocity": _v2(d.linear_velocity),
+                     "angular_velocity_deg": float(d.angular_velocity_deg[2]),
+                     "time_range": _v3(d.time_range)} for d in sh.dbc]
+    if sh.nbc:
+        t["nbc"] = [{"box_min": _v2(n.box_min), "box_max": _v2(n.box_max),
+                     "acceleration": _v2(n.acceleration),
+                     "time_range": _v3(n.time_range)} for n in sh.nbc]
+    return t
+
+
+def _plane_table_2d(p: PlaneSpec) -> dict:
+    t = _plane_table(p)
+    if t["kind"] == "halfSpace":
+        t["origin"], t["normal"] = _v2(p.origin), _v2(p.normal)
+    t["velocity"] = _v2(p.velocity)
+    if p.limit is not None:
+        t["limit"] = _v2(p.limit)
+    return t
 
 
 def _scene_table(s: SceneSpec, rel) -> dict:
@@ -179,7 +265,10 @@ def format_toml(spec: SceneSpec, path=None) -> str:
     """The scene as TOML text; mesh paths relative to ``path``'s folder (default: cwd)."""
     folder = paths.absolute(path).parent if path is not None else paths.absolute(".")
     doc = scene_to_dict(spec, folder)
-    out: list[str] = [_HEADER_COMMENT]
+    header = _HEADER_COMMENT if spec.dimension == 3 else _HEADER_COMMENT.replace(
+        "all tet shapes", "all simulated shapes").replace(
+        "# ipcsim scene.", "# ipcsim scene, 2D (the plane z = 0).")
+    out: list[str] = [header]
     if spec.overrides:  # the values are below; this says which were not the file's
         out.insert(1, "# overrides of the scene file's values: " + ", ".join(
             f"{k} = {_override_literal(v)}" for k, v in spec.overrides.items()) + "\n")

@@ -66,6 +66,9 @@ def format_txt(spec: SceneSpec, path=None) -> str:
     file being written; default: the current directory). Defaults are written out too, so
     the script means the same wherever it is read."""
     out = str(path) if path is not None else None
+    if spec.dimension != 3:
+        raise SceneError(out, None, "a 2D scene has no text form (the original's format is "
+                                    "3D); write the scene as .toml")
     if spec.contact_formulation != "barrier":
         raise SceneError(out, None, f"contact formulation {spec.contact_formulation!r} has no "
                                     "text form; write the scene as .toml")

@@ -17,7 +17,8 @@ import re
 from collections.abc import Mapping
 
 from ..errors import SceneError, excerpt as _q
-from .spec import (CONSTRAINT_SOLVERS, CONSTRAINT_TYPES, ENERGIES, INTEGRATORS,
+from .spec import (CONSTRAINT_SOLVERS, CONSTRAINT_TYPES, CONTACT_BARRIERS, DEFAULTS,
+                   DIMENSIONS, ENERGIES, INTEGRATORS, NODE_MASSES, SIMULATED_KINDS,
                    SUPPORTED_SCRIPTS, UNSUPPORTED_CONSTRAINT_TYPES, SceneSpec)
 
 __all__ = ["validate_scene", "LINEAR_SOLVERS", "MAX_STEPS", "text_name"]
@@ -236,6 +237,7 @@ def validate_scene(
     key paths to line numbers; ``fmt`` ("txt" or "toml") chooses how values are named.
     """
     c = _Checker(source if source is not None else spec.source, fmt, lines or {})
+    _check_dimension(c, spec)
     _check_time(c, spec)
     _check_material_and_integrator(c, spec)
     _check_contact(c, spec)
@@ -244,6 +246,51 @@ def validate_scene(
     _check_shapes(c, spec)
     _check_planes_and_obstacles(c, spec)
     return tuple(c.warnings)
+
+
+def _check_dimension(c: _Checker, s: SceneSpec) -> None:
+    """What a scene of its dimension may hold: the lecture's conventions, rectangles,
+    springs and moving planes only in 2D; legacy scripts, ``rotate_model``, restarts,
+    meshCO obstacles, mesh sequences and the baselines only in 3D."""
+    if s.dimension not in DIMENSIONS:
+        c.fail("scene.dimension", f"must be 2 or 3 (got {_q(repr(s.dimension))})")
+    if s.node_masses not in NODE_MASSES:
+        c.fail("material.node_masses", f"must be one of {', '.join(NODE_MASSES)} "
+                                       f"(got {_q(repr(s.node_masses))})")
+    if s.contact_barrier not in CONTACT_BARRIERS:
+        c.fail("contact.barrier", f"must be one of {', '.join(CONTACT_BARRIERS)} "
+                                  f"(got {_q(repr(s.contact_barrier))})")
+    if s.dimension == 3:
+        two_d = [("material.node_masses", s.node_masses != DEFAULTS.node_masses),
+                 ("scene.gravity_acceleration", s.gravity_acceleration is not None),
+                 ("contact.barrier", s.contact_barrier != DEFAULTS.contact_barrier)]
+        two_d += [(f"shapes[{i}].kind", sh.rectangle is not None)
+                  for i, sh in enumerate(s.shapes)]
+        two_d += [(f"shapes[{i}].spring_stiffness", sh.spring_stiffness is not None)
+                  for i, sh in enumerate(s.shapes)]
+        two_d += [(f"planes[{k}].velocity", p.velocity != (0.0, 0.0, 0.0) or
+                   p.limit is not None) for k, p in enumerate(s.planes)]
+        for key, present in two_d:
+            if present:
+                c.fail(key, "is a setting of 2D scenes ([scene] dimension = 2)")
+        return
+    three_d = [("scene.script", s.script != "null"), ("scene.rotate_model", s.rotate_model),
+               ("scene.restart", s.restart is not None),
+               ("mesh_obstacles", bool(s.mesh_obstacles)),
+               ("solver.constraint_solver", s.constraint_solver != "interiorPoint"),
+               ("contact.formulation", s.contact_formulation != "barrier")]
+    three_d += [(f"shapes[{i}].mesh_sequence", sh.mesh_sequence is not None)
+                for i, sh in enumerate(s.shapes)]
+    three_d += [(f"shapes[{i}].kind", sh.kind in ("tet", "surface"))
+                for i, sh in enumerate(s.shapes)]
+    for key, present in three_d:
+        if present:
+            c.fail(key, "has no 2D meaning (this is a 2D scene)")
+    if s.gravity_acceleration is not None:
+        c.vector("scene.gravity_acceleration", s.gravity_acceleration)
+    for k, p in enumerate(s.planes):
+        if p.normal[2] != 0.0 or p.origin[2] != 0.0 or p.velocity[2] != 0.0:
+            c.fail(f"planes[{k}]", "must lie in the plane z = 0 (a 2D scene's planes are lines)")
 
 
 def _check_time(c: _Checker, s: SceneSpec) -> None:
@@ -365,6 +412,9 @@ def _check_planes_and_obstacles(c: _Checker, s: SceneSpec) -> None:
             c.fail(f"{key}.normal", "must be a unit vector")
         c.number(f"{key}.friction", p.friction, nonneg=True, plane_kind=p.kind)
         c.number(f"{key}.stiffness", p.stiffness)
+        c.vector(f"{key}.velocity", p.velocity)
+        if p.limit is not None:
+            c.vector(f"{key}.limit", p.limit, length=True)
     for k, m in enumerate(s.mesh_obstacles):
         key = f"mesh_obstacles[{k}]"
         c.vector(f"{key}.position", m.position, length=True)
@@ -381,18 +431,25 @@ def _check_shapes(c: _Checker, s: SceneSpec) -> None:
         raise SceneError(c.source, None, f"the scene has no shapes (add {hint})")
     for i, sh in enumerate(s.shapes):
         key = f"shapes[{i}]"
+        simulated = sh.kind in SIMULATED_KINDS
         c.vector(f"{key}.translation", sh.translation, length=True)
         c.vector(f"{key}.rotation_deg", sh.rotation_deg)
         c.scale(f"{key}.scale", sh.scale)
-        if sh.kind == "tet" and math.prod(sh.scale) < 0:
+        if simulated and math.prod(sh.scale) < 0:
             c.fail(f"{key}.scale", f"{sh.scale} mirrors the mesh, which turns every "
-                                   "tetrahedron inside out")
+                                   f"{'tetrahedron' if sh.kind == 'tet' else 'triangle'} "
+                                   "inside out")
+        if sh.spring_stiffness is not None:
+            c.number(f"{key}.spring_stiffness", sh.spring_stiffness, positive=True)
+            if not simulated:
+                c.fail(f"{key}.spring_stiffness", f"makes springs of a body's edges, but the "
+                                                  f"{sh.kind} shape '{sh.label}' is kinematic")
         if sh.material is not None:
             m = sh.material
             c.material(f"{key}.material", m.density, m.youngs_modulus, m.poisson_ratio)
-            if sh.kind != "tet":
+            if not simulated:
                 c.warn(f"{key}.material", f"`material` is ignored for the kinematic "
-                                          f"{sh.kind} shape '{sh.mesh_path.name}'")
+                                          f"{sh.kind} shape '{sh.label}'")
         if sh.linear_velocity is not None:
             c.vector(f"{key}.linear_velocity", sh.linear_velocity)
         if sh.angular_velocity_deg is not None:
@@ -400,9 +457,9 @@ def _check_shapes(c: _Checker, s: SceneSpec) -> None:
         if sh.init_velocity is not None:
             c.vector(f"{key}.init_velocity.linear", sh.init_velocity.linear)
             c.vector(f"{key}.init_velocity.angular_deg", sh.init_velocity.angular_deg)
-            if sh.kind != "tet":
+            if not simulated:
                 c.warn(f"{key}.init_velocity", "an initial velocity is ignored for the "
-                                               f"kinematic {sh.kind} shape '{sh.mesh_path.name}'")
+                                               f"kinematic {sh.kind} shape '{sh.label}'")
             elif s.script != "null":
                 c.warn(f"{key}.init_velocity", f"an initial velocity is only applied with "
                                                f"script null (this scene uses {_q(repr(s.script))})")
@@ -417,7 +474,14 @@ def _check_shapes(c: _Checker, s: SceneSpec) -> None:
             c.box(nk, nb.box_min, nb.box_max)
             c.vector(f"{nk}.acceleration", nb.acceleration)
             c.time_range(f"{nk}.time_range", nb.time_range)
-    if not any(sh.kind == "tet" for sh in s.shapes):
+    if s.dimension == 2 and not any(sh.kind in SIMULATED_KINDS for sh in s.shapes):
+        raise SceneError(
+            c.source, line_of(c.lines, "shapes[0]"),
+            "no simulated body: a 2D scene needs at least one triangle mesh (.msh, .obj) or "
+            "kind = \"rectangle\"; every shape here is a kinematic "
+            + "/".join(sorted({sh.kind for sh in s.shapes})) + " obstacle",
+        )
+    if s.dimension == 3 and not any(sh.kind == "tet" for sh in s.shapes):
         raise SceneError(
             c.source, line_of(c.lines, "shapes[0]"),
             "no tetrahedral shape: IPC needs at least one simulated body (.msh, .vtk, .vtu "

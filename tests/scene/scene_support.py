@@ -64,3 +64,57 @@ def make_mesh_folder(root: Path) -> Path:
         p.parent.mkdir(parents=True, exist_ok=True)
         p.write_text("")
     return root
+
+
+# A 2D scene that uses every 2D key (TOML only: the text format has no 2D form).
+RICH_2D_SCENE = """\
+[scene]
+dimension = 2
+gravity_acceleration = [0.0, -9.81]
+size = 2.0
+[material]
+density = 1000
+node_masses = "uniform"
+[contact]
+kappa = 1e5
+dhat_abs = 0.01
+barrier = "lecture"
+self_friction = 0.2
+[[shapes]]
+kind = "rectangle"
+size = [1.0, 1.0]
+resolution = [4, 4]
+spring_stiffness = 2e4
+translation = [0.5, 0.25]
+rotation_deg = 30
+scale = [2.0, 1.0]
+init_velocity = { linear = [1.0, -1.0], angular_deg = 5 }
+[[shapes.dbc]]
+box_min = [0.0, 0.9]
+box_max = [1.0, 1.0]
+linear_velocity = [0.0, -0.5]
+angular_velocity_deg = 10
+time_range = [0.0, 2.0]
+[[shapes.nbc]]
+box_min = [0.0, 0.0]
+box_max = [0.5, 0.5]
+acceleration = [3.0, 0.0]
+[[shapes]]
+path = "meshes/cube.msh"
+translation = [0.0, 3.0]
+matrix = { counts = [2, 1], spacing = [2.0, 0.0] }
+[[shapes]]
+path = "meshes/edge.seg"
+linear_velocity = [1.0, 0.0]
+angular_velocity_deg = 3
+[[planes]]
+kind = "ground"
+height = -1.0
+friction = 0.11
+[[planes]]
+kind = "halfSpace"
+origin = [0.0, 0.6]
+normal = [0.0, -1.0]
+velocity = [0.0, -0.5]
+limit = [0.0, -0.6]
+"""

@@ -20,7 +20,7 @@ import pytest
 import tomli_w
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from scene_support import example_scripts
+from scene_support import RICH_2D_SCENE, example_scripts
 
 from ipcsim.errors import SceneError
 from ipcsim.scene import format_toml, load_scene, parse_toml, parse_txt, scene_text
@@ -96,7 +96,9 @@ TOML_VALUES = st.one_of(
 TOML_MUTATION = st.tuples(st.sampled_from(["set", "delete", "add", "wrap"]),
                           st.integers(0, 10**6), TOML_VALUES,
                           st.sampled_from(["path", "kind", "dt", "foo", "dbc", "nbc",
-                                           "matrix", "counts", "normal", "friction"]))
+                                           "matrix", "counts", "normal", "friction",
+                                           "dimension", "size", "resolution", "velocity",
+                                           "limit", "rotation_deg", "spring_stiffness"]))
 
 
 def _places(doc, out, depth=0):
@@ -139,9 +141,11 @@ def txt_corpus(rich_scene_module):
 @pytest.fixture(scope="module")
 def toml_corpus(rich_scene_module, tmp_path_factory):
     """The same scenes as TOML (written into the rich scene's folder, so that the mesh
-    paths of both resolve), as (path, parsed document)."""
+    paths of both resolve), and the rich 2D scene, as (path, parsed document)."""
     out = []
-    for k, source in enumerate([rich_scene_module, *example_scripts()]):
+    rich_2d = rich_scene_module.parent / "rich_2d.toml"
+    rich_2d.write_text(RICH_2D_SCENE)
+    for k, source in enumerate([rich_scene_module, rich_2d, *example_scripts()]):
         path = rich_scene_module.parent / f"fuzz_{k}.toml"
         path.write_text(format_toml(load_scene(source), path))
         out.append((path, tomllib.loads(path.read_text())))

@@ -28,8 +28,8 @@ def test_writer_fills_in_every_default(write_scene, scene_dir):
     spec = load_scene(write_scene(BASE, "s.toml"))
     doc = tomllib.loads((save_scene(spec, scene_dir / "out.toml")).read_text())
     for table, keys in _SIMPLE.items():
-        # None: left out
-        optional = {"rotate_model", "restart", "dhat_abs", "epsv_abs", "tolerance"}
+        optional = {"rotate_model", "restart", "dhat_abs", "epsv_abs", "tolerance"}  # None
+        optional |= {"dimension", "node_masses", "barrier", "gravity_acceleration"}  # 2D only
         assert set(doc[table]) == set(keys) - optional, table
     assert doc["contact"]["kappa"] == "adaptive" and doc["solver"]["linear_solver"] == "auto"
     assert doc["scene"]["dbc_time_range"] == [0.0, math.inf]

@@ -50,17 +50,20 @@ def bucket_kept(rows, cols, vals, scale, free_index, fill, bucket_rows, bucket_v
 
 @njit(cache=True)
 def block_triplet_indices(stencils):
-    """(rows, cols), int32, of the 144 entries of each stencil's 12 x 12 block, in the
-    blocks' order, row-major: entry 144 k + 12 r + c couples DOF 3 s[r//3] + r%3 with DOF
-    3 s[c//3] + c%3, s = stencils[k] (4 global vertex ids)."""
+    """(rows, cols), int32, of the B = (3w)² entries of each stencil's 3w x 3w block (w =
+    stencils.shape[1] vertices: 4 for point-triangle and edge-edge, 12 x 12 blocks; 3 for
+    point-edge, 9 x 9), in the blocks' order, row-major: entry B k + 3w r + c couples DOF
+    3 s[r//3] + r%3 with DOF 3 s[c//3] + c%3, s = stencils[k] (global vertex ids)."""
     k = stencils.shape[0]
-    rows = np.empty(144 * k, dtype=np.int32)
-    cols = np.empty(144 * k, dtype=np.int32)
+    nd = 3 * stencils.shape[1]
+    size = nd * nd
+    rows = np.empty(size * k, dtype=np.int32)
+    cols = np.empty(size * k, dtype=np.int32)
     for a in range(k):
-        for r in range(12):
+        for r in range(nd):
             gr = 3 * stencils[a, r // 3] + r % 3
-            for c in range(12):
-                o = 144 * a + 12 * r + c
+            for c in range(nd):
+                o = size * a + nd * r + c
                 rows[o] = gr
                 cols[o] = 3 * stencils[a, c // 3] + c % 3
     return rows, cols

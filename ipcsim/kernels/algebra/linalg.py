@@ -1,5 +1,5 @@
 """Small dense linear algebra for per-stencil kernels (3-vectors, 3x3 determinants, 12x12
-blocks), and the one floating-point tet volume of the package.
+blocks), and the one floating-point tet volume (and triangle area) of the package.
 
 Everything here is called a few times per contact pair or tet. Like distance.py, mollifier.py
 and contact_barrier.py it compiles with error_model="numpy": a division by zero (a
@@ -111,6 +111,21 @@ def tet_signed_volumes(x, tets):
 
 
 @njit(cache=True, error_model="numpy")
+def triangle_signed_areas(x, triangles):
+    """Signed areas (m,) of the triangles (m, 3) of a 2D scene over positions x (n, 3),
+    in the plane z = 0: A = det[x1 − x0, x2 − x0] / 2 of the x, y parts (positive for a
+    counter-clockwise triangle). The floating-point area of the package, as
+    ``tet_signed_volumes`` is the volume; the exact sign is ``intersection.orient2d``."""
+    m = triangles.shape[0]
+    out = np.empty(m)
+    for e in range(m):
+        a, b, c = triangles[e, 0], triangles[e, 1], triangles[e, 2]
+        out[e] = 0.5 * ((x[b, 0] - x[a, 0]) * (x[c, 1] - x[a, 1])
+                        - (x[b, 1] - x[a, 1]) * (x[c, 0] - x[a, 0]))
+    return out
+
+
+@njit(cache=True, error_model="numpy")
 def symmetrize_from_upper(H):
     """Copy the upper triangle onto the lower one, in place, and return H."""
     n = H.shape[0]
@@ -141,6 +156,24 @@ def project_psd(H):
             for j in range(i, n):
                 out[i, j] += vik * V[j, k]
     return symmetrize_from_upper(out)
+
+
+@njit(cache=True, error_model="numpy")
+def project_psd_on_dofs(H, dof):
+    """project_psd(H) for a symmetric H that is zero outside the rows and columns ``dof``
+    (int array): only that block is decomposed, the rest of the result is zero. Returns
+    a new array of H's shape."""
+    n = dof.shape[0]
+    sub = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            sub[i, j] = H[dof[i], dof[j]]
+    P = project_psd(sub)
+    out = np.zeros(H.shape)
+    for i in range(n):
+        for j in range(n):
+            out[dof[i], dof[j]] = P[i, j]
+    return out
 
 
 @njit(cache=True, error_model="numpy")

@@ -56,6 +56,43 @@ def barrier_and_derivatives(s, s_hat):
     return b, db, d2b
 
 
+# --- the lecture's barrier (phys-sim-book, lessons 3-8) ----------------------------------
+# The course's simulator writes its barrier as
+#
+#     b_L(r; r̂) = (r/r̂ − 1) ln(r/r̂)   for 0 < r < r̂,   0 for r ≥ r̂
+#
+# on the distance itself for a half-plane (r = d, r̂ = d̂, weight A d̂ / 2) and on the
+# squared distance for a point–edge pair (r = d², r̂ = d̂², weight A d̂ / 16), A the
+# contact length of the node. It is C¹ at r = r̂ (b_L' = 0 there), not C² as b is.
+
+BARRIER_IPC = 0  # b(s, ŝ) = −(s − ŝ)² ln(s/ŝ): the paper's, on squared distances
+BARRIER_LECTURE = 1  # b_L(r, r̂) = (r/r̂ − 1) ln(r/r̂): the lecture's
+
+
+@njit(cache=True)
+def lecture_barrier_and_derivatives(r, r_hat):
+    """(b_L, b_L', b_L'') at r (derivatives with respect to r); all 0 for r ≥ r̂, +inf
+    value for r ≤ 0."""
+    if r >= r_hat:
+        return 0.0, 0.0, 0.0
+    if r <= 0.0:
+        return np.inf, -np.inf, np.inf
+    rho = r / r_hat
+    lg = np.log(rho)
+    b = (rho - 1.0) * lg  # b_L = (r/r̂ − 1) ln(r/r̂)
+    db = lg / r_hat + (rho - 1.0) / r  # b_L' = ln(r/r̂)/r̂ + (r/r̂ − 1)/r
+    d2b = (r + r_hat) / (r * r * r_hat)  # b_L'' = (r + r̂)/(r² r̂)
+    return b, db, d2b
+
+
+@njit(cache=True)
+def barrier_of_form(form, s, s_hat):
+    """(b, b', b'') of the barrier ``form`` (BARRIER_IPC or BARRIER_LECTURE) at s."""
+    if form == BARRIER_LECTURE:
+        return lecture_barrier_and_derivatives(s, s_hat)
+    return barrier_and_derivatives(s, s_hat)
+
+
 @njit(cache=True)
 def balanced_stiffness(g_barrier, g_rest, kappa_min, kappa_max):
     """κ = clamp(−(g_B · g_E) / ‖g_B‖², κ_min, κ_max), κ_min where g_B = 0: the κ that

@@ -353,6 +353,24 @@ def candidate_pairs(x0, x1, points, edges, triangles, tags, inflation, self_coll
             pt_index, ee_index)
 
 
+@kernel()
+def point_edge_candidate_pairs(x0, x1, points, edges, tags, inflation, self_collision):
+    """Every kept point-edge pair of a 2D mesh (its boundary vertices ``points (n, 1)``
+    against its boundary edges) whose boxes over ``x0`` and ``x1``, grown by
+    ``inflation / 2``, overlap: ``(pe_rows, pe_index)``, stencil rows (p, e0, e1) and the
+    (point, edge) index pairs they come from; ``tags = (point tags, edge tags)``. The
+    tree holds the edges and the points query it, so a point meets no edge it is an
+    endpoint of (``query_bvh``'s shared-vertex rule)."""
+    point_tags, edge_tags = tags
+    point_boxes = primitive_boxes(x0, x1, points, inflation)
+    edge_boxes = primitive_boxes(x0, x1, edges, inflation)
+    nodes, leaf_boxes, order, last_slot = build_bvh(edge_boxes)
+    pe_index = query_bvh((point_boxes, points, point_tags),
+                         (nodes, leaf_boxes, order, last_slot, edges, edge_tags),
+                         False, self_collision)
+    return gather_rows(points, edges, pe_index), pe_index
+
+
 @njit(cache=True)
 def primitive_tags(prims, body_of_vertex, kinematic_vertex):
     """Tags ``(m, 2) = [body id, kinematic]`` of ``prims (m, k)``: the body of the first vertex,
@@ -387,8 +405,9 @@ def gather_rows(first, second, pairs):
 
 @kernel(parallel=True)
 def swept_pairs_within(x0, x1, pairs, split, inflation):
-    """Mask of the pairs (rows of 4 vertices: the first ``split`` form one primitive, the
-    rest the other) whose boxes over the motion x0 -> x1, grown by inflation/2, overlap:
+    """Mask of the pairs (rows of 4 vertices, or of 3 for point-edge pairs: the first
+    ``split`` form one primitive, the rest the other) whose boxes over the motion
+    x0 -> x1, grown by inflation/2, overlap:
     the same test as the broad phase, applied to a known list of pairs (cheaper than a new
     query when the list is a superset, as for a shorter part of an already swept step)."""
     m = pairs.shape[0]
@@ -401,7 +420,7 @@ def swept_pairs_within(x0, x1, pairs, split, inflation):
             hi0 = -np.inf
             lo1 = np.inf
             hi1 = -np.inf
-            for j in range(4):
+            for j in range(pairs.shape[1]):
                 v = pairs[i, j]
                 lo = min(x0[v, a], x1[v, a])
                 hi = max(x0[v, a], x1[v, a])

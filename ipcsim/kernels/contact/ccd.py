@@ -2,14 +2,17 @@
 
 After Li, Kaufman and Jiang 2021 ("Codimensional Incremental Potential Contact"), section 4.
 Every vertex moves on q(t) = q0 + t·dq, t in [0, 1]. For a point-triangle (PT) stencil
-(p, t0, t1, t2) or an edge-edge (EE) stencil (a0, a1, b0, b1), the unsquared distance d(t) is
-1-Lipschitz in the relative position of any point pair, so
+(p, t0, t1, t2), an edge-edge (EE) stencil (a0, a1, b0, b1) or, in a 2D scene, a point-edge
+(PE) stencil (p, e0, e1), the unsquared distance d(t) is 1-Lipschitz in the relative
+position of any point pair, so
 
     |d'(t)| <= l_p,   l_p = max_i |dt_i - dp|             (PT)
                       l_p = max_{i,j} |da_i - db_j|       (EE)
+                      l_p = max_i |de_i - dp|             (PE)
 
-(the relative motion of p against any convex combination of t0, t1, t2, or of any point of
-edge a against any point of edge b). From a time t with distance d, advancing by
+(the relative motion of p against any convex combination of t0, t1, t2, of any point of
+edge a against any point of edge b, or of p against any point of edge e). From a time t
+with distance d, advancing by
 
     δ = s·d / l_p,   s = (1 - f)·(1 - 1e-3)
 
@@ -30,8 +33,9 @@ drops every query whose safe time already reaches the smallest finished result, 
 only run while they could still lower the step.
 
 Distances are those of ``kernels/contact/distance.py`` (closest feature chosen as ipctk does, then
-that feature's distance), the ones the barrier uses; ``point_triangle_distance_sq(q)`` and
-``edge_edge_distance_sq(q)`` here only take the stencil as one (4, 3) array. They are not
+that feature's distance), the ones the barriers use (point-edge: ``point_edge_distance_sq``);
+``point_triangle_distance_sq(q)`` and ``edge_edge_distance_sq(q)`` here only take the
+stencil as one (4, 3) array. They are not
 lower bounds, and need not be. A computed distance d_c = (1 + e)·d (d the exact one)
 advances by δ = s·d_c/l_p, over which the exact distance stays at least
 d − l_p·δ = (1 − s·(1 + e))·d. With s = (1 − f)(1 − 1e-3) that is at least f·d (the step
@@ -54,6 +58,11 @@ uncertain, the error reaches the smaller of ε·L/sin θ and L·sin θ, at most 
 (L the edge length; below sin²θ = 2.5e-16, distance.EE_PARALLEL_THRESHOLD, they are
 treated as parallel), which is more than 11 % of d only for d below ~1e-7·L.
 Degenerate triangles (collinear vertices) are measured by their three edges.
+
+Stencils come as one (k, 4) array, PT rows first (``n_pt`` of them), then EE rows; or, for
+a 2D scene, as one (k, 3) array of PE rows (``n_pt`` = 0): the kind of a query follows
+from its row and the array's width (``query_kind``). A point-edge distance is as well
+conditioned as a point-line one (c of order one).
 """
 
 from __future__ import annotations
@@ -62,6 +71,7 @@ import numpy as np
 from ipcsim.compiler.jit import njit, prange
 
 from ipcsim.kernels.contact.distance import edge_edge_distance_sq as ee_distance_sq_of_points
+from ipcsim.kernels.contact.distance import point_edge_distance_sq as pe_distance_sq_of_points
 from ipcsim.kernels.contact.distance import point_triangle_distance_sq as pt_distance_sq_of_points
 from ipcsim.compiler.twin import kernel
 
@@ -74,6 +84,17 @@ _SERIAL_BELOW = 256  # fewer queries than this run in one thread's loop
 
 # query state columns
 _T, _D0, _LP, _DONE, _ITERS = 0, 1, 2, 3, 4
+# stencil kinds
+STENCIL_PT, STENCIL_EE, STENCIL_PE = 0, 1, 2
+
+
+@njit(cache=True, inline="always")
+def query_kind(stencils, k, n_pt):
+    """The kind of query k: PE in a (k, 3) array of point-edge rows, else PT for the
+    first n_pt rows and EE for the rest."""
+    if stencils.shape[1] == 3:
+        return STENCIL_PE
+    return STENCIL_PT if k < n_pt else STENCIL_EE
 
 
 @njit(cache=True)
@@ -100,11 +121,14 @@ def edge_edge_distance_sq(q):
 
 
 @njit(cache=True)
-def _distance(q, is_pt):
-    # the distance of a stencil given as a tuple of four points
-    if is_pt:
+def _distance(q, kind):
+    # the distance of a stencil given as a tuple of four points (a PE stencil: three, and
+    # its last one again)
+    if kind == STENCIL_PT:
         return np.sqrt(pt_distance_sq_of_points(q[0], q[1], q[2], q[3]))
-    return np.sqrt(ee_distance_sq_of_points(q[0], q[1], q[2], q[3]))
+    if kind == STENCIL_EE:
+        return np.sqrt(ee_distance_sq_of_points(q[0], q[1], q[2], q[3]))
+    return np.sqrt(pe_distance_sq_of_points(q[0], q[1], q[2]))
 
 
 # The per-query helpers read a stencil's points into tuples (registers) and are inlined at
@@ -113,8 +137,10 @@ def _distance(q, is_pt):
 
 @njit(cache=True, inline="always")
 def _stencil(x0, x1, stencils, k):
-    # (q0, dq): the four points of stencil k at t = 0 and their motions x1 - x0
-    a, b, c, d = stencils[k, 0], stencils[k, 1], stencils[k, 2], stencils[k, 3]
+    # (q0, dq): the four points of stencil k at t = 0 and their motions x1 - x0 (a
+    # point-edge row's three points, its last one twice)
+    a, b, c = stencils[k, 0], stencils[k, 1], stencils[k, 2]
+    d = stencils[k, stencils.shape[1] - 1]
     q0 = ((x0[a, 0], x0[a, 1], x0[a, 2]), (x0[b, 0], x0[b, 1], x0[b, 2]),
           (x0[c, 0], x0[c, 1], x0[c, 2]), (x0[d, 0], x0[d, 1], x0[d, 2]))
     dq = ((x1[a, 0] - x0[a, 0], x1[a, 1] - x0[a, 1], x1[a, 2] - x0[a, 2]),
@@ -131,11 +157,11 @@ def _point_at(p, dp, t):
 
 
 @njit(cache=True)
-def _distance_at(q0, dq, t, is_pt):
+def _distance_at(q0, dq, t, kind):
     # _distance of q(t) = q0 + t·dq
     q = (_point_at(q0[0], dq[0], t), _point_at(q0[1], dq[1], t),
          _point_at(q0[2], dq[2], t), _point_at(q0[3], dq[3], t))
-    return _distance(q, is_pt)
+    return _distance(q, kind)
 
 
 @njit(cache=True, inline="always")
@@ -147,9 +173,9 @@ def _relative_motion(u, v):
 
 
 @njit(cache=True)
-def _motion_bound(dq, is_pt):
-    # l_p: PT max_i |dt_i - dp|; EE max_{i in a, j in b} |da_i - db_j|
-    if is_pt:
+def _motion_bound(dq, kind):
+    # l_p: PT max_i |dt_i - dp|; EE max_{i in a, j in b} |da_i - db_j|; PE max_i |de_i - dp|
+    if kind != STENCIL_EE:  # a PE stencil's last point is its e1 again
         lp = max(0.0, _relative_motion(dq[0], dq[1]))
         lp = max(lp, _relative_motion(dq[0], dq[2]))
         return max(lp, _relative_motion(dq[0], dq[3]))
@@ -172,12 +198,12 @@ def _scale(q0, dq):
 
 
 @njit(cache=True, inline="always")
-def _init_query(x0, x1, stencils, k, is_pt, state):
+def _init_query(x0, x1, stencils, k, kind, state):
     # state[k] = [t, d0, l_p, done, iterations]
     q0, dq = _stencil(x0, x1, stencils, k)
     scale = _scale(q0, dq)
-    d0 = _distance(q0, is_pt)
-    lp = _motion_bound(dq, is_pt)
+    d0 = _distance(q0, kind)
+    lp = _motion_bound(dq, kind)
     state[k, _T] = 0.0
     state[k, _D0] = d0
     state[k, _LP] = lp
@@ -191,24 +217,24 @@ def _init_query(x0, x1, stencils, k, is_pt, state):
 
 
 @njit(cache=True, inline="always")
-def _advance_query(x0, x1, stencils, k, is_pt, state, tmax, n_iter, f):
+def _advance_query(x0, x1, stencils, k, kind, state, tmax, n_iter, f):
     # at most n_iter ACCD steps from the safe time state[k, _T], never past tmax
     q0, dq = _stencil(x0, x1, stencils, k)
     t = state[k, _T]
     lp = state[k, _LP]
     gap = f * state[k, _D0]
     s = (1.0 - f) * _STEP_SAFETY
-    d = _distance_at(q0, dq, t, is_pt)
+    d = _distance_at(q0, dq, t, kind)
     iters = state[k, _ITERS]
     for _ in range(n_iter):
         iters += 1.0
         t_next = min(t + s * d / lp, tmax)  # d >= (1 - s)·d > 0 on [t, t_next]
-        d_next = _distance_at(q0, dq, t_next, is_pt)
+        d_next = _distance_at(q0, dq, t_next, kind)
         if not d_next >= gap:  # the gap would fall under f·d0: one last, shorter step,
             # d >= d - l_p·τ >= f·d0 on [t, t + (d - f·d0) / l_p], then stop
             t_last = min(t + _STEP_SAFETY * (d - gap) / lp, tmax)
             if t_last > t:
-                if _distance_at(q0, dq, t_last, is_pt) >= gap:
+                if _distance_at(q0, dq, t_last, kind) >= gap:
                     t = t_last
             state[k, _T] = t
             state[k, _DONE] = 1.0
@@ -228,7 +254,7 @@ def _advance_query(x0, x1, stencils, k, is_pt, state, tmax, n_iter, f):
 @njit(cache=True)
 def _init_chunk(x0, x1, stencils, n_pt, state, c):
     for k in range(c * _CHUNK, min((c + 1) * _CHUNK, stencils.shape[0])):
-        _init_query(x0, x1, stencils, k, k < n_pt, state)
+        _init_query(x0, x1, stencils, k, query_kind(stencils, k, n_pt), state)
 
 
 @kernel(parallel=True)
@@ -249,7 +275,8 @@ def _advance_chunk(x0, x1, stencils, n_pt, state, active, tmax, n_iter, f, c):
     # every query writes only its own state row
     for i in range(c * _CHUNK, min((c + 1) * _CHUNK, active.shape[0])):
         k = active[i]
-        _advance_query(x0, x1, stencils, k, k < n_pt, state, tmax, n_iter, f)
+        _advance_query(x0, x1, stencils, k, query_kind(stencils, k, n_pt), state, tmax,
+                       n_iter, f)
 
 
 @kernel(parallel=True)
@@ -319,13 +346,14 @@ def _check(x0, x1, min_gap_fraction, max_iterations):
     return x0, x1
 
 
-def ccd_query_steps(x0, x1, pt_pairs, ee_pairs, min_gap_fraction=DEFAULT_MIN_GAP_FRACTION,
-                    max_iterations=DEFAULT_MAX_ITERATIONS):
-    """Safe step of every query, each run on its own over [0, 1] (no pruning).
+def _point_edge_stencils(pe_pairs, n_vertices):
+    pe = np.ascontiguousarray(pe_pairs, dtype=np.int64).reshape(-1, 3)
+    if pe.size and (pe.min() < 0 or pe.max() >= n_vertices):
+        raise ValueError("stencil vertex index out of range")
+    return pe
 
-    Returns ``(steps, iterations)``: PT queries first, then EE, each a float array."""
-    x0, x1 = _check(x0, x1, min_gap_fraction, max_iterations)
-    stencils, n_pt = _stack_stencils(pt_pairs, ee_pairs, x0.shape[0])
+
+def _query_steps(x0, x1, stencils, n_pt, min_gap_fraction, max_iterations):
     state = np.empty((stencils.shape[0], 5))
     init_queries(x0, x1, stencils, n_pt, state)
     active = np.flatnonzero(state[:, _DONE] == 0.0)
@@ -335,6 +363,30 @@ def ccd_query_steps(x0, x1, pt_pairs, ee_pairs, min_gap_fraction=DEFAULT_MIN_GAP
     return state[:, _T].copy(), state[:, _ITERS].copy()
 
 
+def ccd_query_steps(x0, x1, pt_pairs, ee_pairs, min_gap_fraction=DEFAULT_MIN_GAP_FRACTION,
+                    max_iterations=DEFAULT_MAX_ITERATIONS):
+    """Safe step of every query, each run on its own over [0, 1] (no pruning).
+
+    Returns ``(steps, iterations)``: PT queries first, then EE, each a float array."""
+    x0, x1 = _check(x0, x1, min_gap_fraction, max_iterations)
+    stencils, n_pt = _stack_stencils(pt_pairs, ee_pairs, x0.shape[0])
+    return _query_steps(x0, x1, stencils, n_pt, min_gap_fraction, max_iterations)
+
+
+def point_edge_query_steps(x0, x1, pe_pairs, min_gap_fraction=DEFAULT_MIN_GAP_FRACTION,
+                           max_iterations=DEFAULT_MAX_ITERATIONS):
+    """``ccd_query_steps`` for the point-edge stencils ``(p, e0, e1)`` of a 2D scene."""
+    x0, x1 = _check(x0, x1, min_gap_fraction, max_iterations)
+    stencils = _point_edge_stencils(pe_pairs, x0.shape[0])
+    return _query_steps(x0, x1, stencils, 0, min_gap_fraction, max_iterations)
+
+
+def _max_step(x0, x1, stencils, n_pt, min_gap_fraction, max_iterations):
+    if stencils.shape[0] == 0:
+        return 1.0
+    return max_step(x0, x1, stencils, n_pt, float(min_gap_fraction), int(max_iterations))
+
+
 def ccd_max_step(x0, x1, pt_pairs, ee_pairs, min_gap_fraction=DEFAULT_MIN_GAP_FRACTION,
                  max_iterations=DEFAULT_MAX_ITERATIONS):
     """Largest step α in [0, 1] such that moving every vertex from x0 towards x1 by α keeps
@@ -342,6 +394,14 @@ def ccd_max_step(x0, x1, pt_pairs, ee_pairs, min_gap_fraction=DEFAULT_MIN_GAP_FR
     gap of at least ``min_gap_fraction`` times its initial distance at α (ACCD)."""
     x0, x1 = _check(x0, x1, min_gap_fraction, max_iterations)
     stencils, n_pt = _stack_stencils(pt_pairs, ee_pairs, x0.shape[0])
-    if stencils.shape[0] == 0:
-        return 1.0
-    return max_step(x0, x1, stencils, n_pt, float(min_gap_fraction), int(max_iterations))
+    return _max_step(x0, x1, stencils, n_pt, min_gap_fraction, max_iterations)
+
+
+def point_edge_max_step(x0, x1, pe_pairs, min_gap_fraction=DEFAULT_MIN_GAP_FRACTION,
+                        max_iterations=DEFAULT_MAX_ITERATIONS):
+    """``ccd_max_step`` for the point-edge stencils ``(p, e0, e1)`` of a 2D scene: the
+    largest α in [0, 1] keeping each point and edge apart, with a gap of at least
+    ``min_gap_fraction`` times its initial distance at α."""
+    x0, x1 = _check(x0, x1, min_gap_fraction, max_iterations)
+    stencils = _point_edge_stencils(pe_pairs, x0.shape[0])
+    return _max_step(x0, x1, stencils, 0, min_gap_fraction, max_iterations)

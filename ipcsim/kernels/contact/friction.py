@@ -10,6 +10,14 @@ others are minus the barycentric / edge-parameter weights of the opposite featur
 orthonormal tangent basis P_k (3 x 2) of the plane orthogonal to the feature's normal.
 Only |P_kᵀ r| enters D, so the in-plane orientation of P_k is arbitrary (as in ipctk).
 
+2D scenes (point–edge pairs at z = 0, ``lag_point_edge_pairs``) use the same formulas:
+their closest feature is a point–point or point–line one, whose normal lies in the
+plane, so one column of P is exactly e_z (``_basis_from_normal`` takes the axis least
+aligned with n, z, and n̂ × (n̂ × e_z) has no x, y parts). Nothing moves along z (u_z = 0),
+so |Pᵀr| is the slip along the 1D tangent of the plane (ipctk's 2D basis), the gradient
+has no z parts, and the Hessian couples no z DOF with an in-plane one (its z-z entries,
+w c_i c_j f1/y ≥ 0, act on z alone, where the gradient is 0).
+
 Smoothed friction magnitude (C² at y = ε since f1(ε) = 1, f1'(ε) = 0):
     f0(y) = −y³/(3ε²) + y²/ε + ε/3      (y < ε),   y  otherwise
     f1(y) = f0'(y) = −y²/ε² + 2y/ε      (y < ε),   1  otherwise
@@ -37,10 +45,11 @@ from __future__ import annotations
 import numpy as np
 from ipcsim.compiler.jit import njit, prange
 
-from ipcsim.kernels.contact.barrier import barrier_first_derivative
+from ipcsim.kernels.contact.barrier import barrier_first_derivative, barrier_of_form
 from ipcsim.kernels.contact.pair_barrier import classify_and_distance
 from ipcsim.kernels.contact.distance import (
     EE_FEATURES,
+    PE_FEATURES,
     POINT_LINE,
     POINT_PLANE,
     POINT_POINT,
@@ -50,6 +59,7 @@ from ipcsim.kernels.algebra.linalg import cross3, dot3, ordered_sum, scale3, squ
 from ipcsim.kernels.contact.mollifier import edge_edge_cross_sq
 from ipcsim.kernels.algebra.scatter import scatter_local_gradients
 from ipcsim.kernels.contact.plane_barrier import plane_active_count_and_min_distance
+from ipcsim.kernels.contact.point_edge_barrier import pe_classify_and_distance
 from ipcsim.compiler.twin import kernel
 
 
@@ -203,6 +213,32 @@ def lag_mesh_pairs(x_lag, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa):
         _lag_feature(x_lag, pair, f, verts[i], coeffs[i], basis[i])
         # λ = −κ b'(d², ŝ) · 2d
         lam[i] = -kappa * barrier_first_derivative(d2, s_hat) * 2.0 * np.sqrt(d2)
+    return keep, verts, coeffs, basis, lam
+
+
+@kernel(parallel=True, error_model="numpy")
+def lag_point_edge_pairs(x_lag, pe_pairs, weights, s_hat, kappa, form):
+    """Lagged friction data of every point–edge pair of a 2D scene at x_lag (module
+    docstring), in the layout of ``lag_mesh_pairs``: (keep (k,) bool, verts (k, 4), coeffs
+    (k, 4), basis (k, 3, 2), lam (k,)). keep: active (d² < ŝ). The normal force is that
+    of the pair's barrier (``point_edge_barrier``: weight w, barrier ``form``),
+    lam = −w κ b'(d², ŝ) 2d. Rows of dropped pairs are left unspecified."""
+    types, d2 = pe_classify_and_distance(x_lag, pe_pairs)
+    m = pe_pairs.shape[0]
+    keep = np.zeros(m, dtype=np.bool_)
+    verts = np.full((m, 4), -1, dtype=np.int64)
+    coeffs = np.zeros((m, 4))
+    basis = np.zeros((m, 3, 2))
+    lam = np.zeros(m)
+    for i in prange(m):
+        if not d2[i] < s_hat:
+            continue
+        keep[i] = True
+        _lag_feature(x_lag, pe_pairs[i], PE_FEATURES[types[i]], verts[i], coeffs[i],
+                     basis[i])
+        _, db, _ = barrier_of_form(form, d2[i], s_hat)
+        # λ = −w κ b'(d², ŝ) · 2d
+        lam[i] = -weights[i] * kappa * db * 2.0 * np.sqrt(d2[i])
     return keep, verts, coeffs, basis, lam
 
 

@@ -1,4 +1,5 @@
-"""Exact intersection predicates for checking a frame: segment-triangle and tet orientation.
+"""Exact intersection predicates for checking a frame: segment-triangle and tet orientation;
+in a 2D scene (the plane z = 0) segment-segment crossing and triangle orientation.
 
 Every sign below is *exact* for finite float64 input: no tolerance, no epsilon. Each
 orientation determinant is evaluated in up to three tiers:
@@ -39,6 +40,15 @@ triangle is then not reported, as in ipctk's ``has_intersections``.
 
 Non-finite coordinates give an unspecified answer; callers check ``np.isfinite`` first.
 
+2D scenes
+---------
+A 2D scene lies in the plane z = 0; its bodies are triangles and their boundaries are
+edges. ``segments_cross_2d(p, q, r, s)`` answers whether the closed segments pq and rs
+share a point of the plane (the exact ``orient2d`` signs with z dropped: a proper
+crossing, an endpoint on the other segment, or collinear overlap); a triangle (a, b, c)
+is inverted or flat exactly when ``orient2d(a, b, c, 2) <= 0``. Boundary edges that share
+a vertex index are not tested against each other, as in 3D.
+
 Broad phase
 -----------
 ``edge_triangle_candidates`` is the package's broad phase (``kernels/contact/broad_phase.py``, the
@@ -58,7 +68,7 @@ import numpy as np
 from ipcsim.compiler.jit import njit
 
 from ipcsim.kernels.contact.broad_phase import build_bvh, primitive_boxes, query_bvh
-from ipcsim.kernels.algebra.linalg import point3, tet_signed_volumes
+from ipcsim.kernels.algebra.linalg import point3, tet_signed_volumes, triangle_signed_areas
 from ipcsim.compiler.twin import kernel
 
 _EPS = 2.0**-53
@@ -528,6 +538,53 @@ def classify_edge_triangle_pairs(x, edges, triangles, pairs):
             point3(x, triangles[t, 2]),
         )
     return kinds
+
+
+# ---------------------------------------------------------------- 2D scenes (z = 0)
+
+
+@njit(cache=True)
+def segments_cross_2d(p, q, r, s):
+    """Exact: do the closed segments pq and rs of the plane z = 0 share a point?"""
+    return _segments_meet_2d(p, q, r, s, 2)
+
+
+@njit(cache=True)
+def triangle_orientations(x, triangles, signs, areas):
+    """signs[t] = exact orient2d of triangle t in the plane z = 0 (int8: 1 counter-
+    clockwise, 0 flat, −1 inverted); areas[t] = its floating-point signed area
+    (``linalg.triangle_signed_areas``, not exact)."""
+    for t in range(triangles.shape[0]):
+        signs[t] = orient2d(point3(x, triangles[t, 0]), point3(x, triangles[t, 1]),
+                            point3(x, triangles[t, 2]), 2)
+    areas[:] = triangle_signed_areas(x, triangles)
+
+
+@kernel()
+def edge_edge_candidates_2d(x, edges):
+    """Pairs (i, j), i < j, of edges whose closed bounding boxes overlap and that share
+    no vertex index, as an (m, 2) array: the package's broad phase (``broad_phase``'s
+    BVH of the edges, queried by the edges themselves) on exact boxes with its inclusive
+    overlap test, so every pair of closed segments that share a point is a candidate."""
+    if edges.shape[0] < 2:
+        return np.empty((0, 2), np.int64)
+    boxes = primitive_boxes(x, x, edges, 0.0)
+    nodes, leaf_boxes, order, last_slot = build_bvh(boxes)
+    tags = _body_tags(edges.shape[0], np.empty(0, np.int64))
+    return query_bvh((boxes, edges, tags), (nodes, leaf_boxes, order, last_slot, edges, tags),
+                     True, True)
+
+
+@njit(cache=True)
+def crossing_edge_pairs_2d(x, edges, pairs):
+    """crossing[i] = segments_cross_2d of the two edges of pairs[i] (bool)."""
+    crossing = np.zeros(pairs.shape[0], np.bool_)
+    for i in range(pairs.shape[0]):
+        a = pairs[i, 0]
+        b = pairs[i, 1]
+        crossing[i] = segments_cross_2d(point3(x, edges[a, 0]), point3(x, edges[a, 1]),
+                                        point3(x, edges[b, 0]), point3(x, edges[b, 1]))
+    return crossing
 
 
 # ---------------------------------------------------------------- containment

@@ -36,7 +36,7 @@ from ipcsim.kernels.contact.distance import (
     point_triangle_distance_sq_hessian,
     point_triangle_distance_type,
 )
-from ipcsim.kernels.algebra.linalg import ordered_sum, point3, project_psd
+from ipcsim.kernels.algebra.linalg import ordered_sum, point3, project_psd, project_psd_on_dofs
 from ipcsim.kernels.algebra.scatter import scatter_stencil_gradients
 from ipcsim.kernels.contact.mollifier import (
     edge_edge_cross_sq,
@@ -210,30 +210,21 @@ def _ee_gradient_at(x, pair, eps_x, s_hat, kappa):
 
 @njit(cache=True, error_model="numpy")
 def project_psd_on_feature(H, feature):
-    """project_psd(H) for a 12 x 12 H that is zero outside the vertices named in `feature`
-    (a row of distance.PT_FEATURES / EE_FEATURES: slots 1..4 name the stencil vertices
-    of the closest feature, −1 unused): only that 6/9/12 block is decomposed (eigh costs
-    ~n³). Returns a new 12 x 12 array."""
+    """project_psd(H) for a stencil's Hessian H (3w x 3w: 12 x 12 for point-triangle and
+    edge-edge, 9 x 9 for point-edge) that is zero outside the vertices named in `feature`
+    (a row of distance.PT_FEATURES / EE_FEATURES / PE_FEATURES: slots 1..4 name the
+    stencil vertices of the closest feature, −1 unused): only that 6/9/12 block is
+    decomposed (eigh costs ~n³). Returns a new 3w x 3w array."""
     nv = 0
     for k in range(1, 5):
         nv += feature[k] >= 0
-    if nv == 4:
+    if 3 * nv == H.shape[0]:
         return project_psd(H)
-    n = 3 * nv
-    dof = np.empty(n, dtype=np.int64)
+    dof = np.empty(3 * nv, dtype=np.int64)
     for k in range(nv):
         for a in range(3):
             dof[3 * k + a] = 3 * feature[1 + k] + a
-    sub = np.empty((n, n))
-    for i in range(n):
-        for j in range(n):
-            sub[i, j] = H[dof[i], dof[j]]
-    P = project_psd(sub)
-    out = np.zeros((12, 12))
-    for i in range(n):
-        for j in range(n):
-            out[dof[i], dof[j]] = P[i, j]
-    return out
+    return project_psd_on_dofs(H, dof)
 
 
 @njit(cache=True, error_model="numpy")

@@ -256,26 +256,50 @@ def _sym3_eig(A, w, Q, M):
 
 # --------------------------------------------------------------------------------------
 # energy densities and their derivatives in the singular values
+# (the scalar formulas are public: triangles.py evaluates them in plane strain, at
+# F₃ = diag(F, 1), σ₃ = 1)
 # --------------------------------------------------------------------------------------
+
+
+@njit(cache=True, inline="always")
+def neo_hookean_density(trace_c, J, mu, lam):
+    """Ψ = μ/2 (tr FᵀF − 3) − μ ln J + λ/2 (ln J)² from tr FᵀF and J; +∞ for J ≤ 0."""
+    if J <= 0.0:
+        return np.inf
+    lnJ = np.log(J)
+    return 0.5 * mu * (trace_c - 3.0) - mu * lnJ + 0.5 * lam * lnJ * lnJ
+
+
+@njit(cache=True, inline="always")
+def neo_hookean_cofactor_factor(J, mu, lam):
+    """k of the NH stress P = μ F + k cof F, k = (λ ln J − μ)/J (cof F = J F⁻ᵀ), J > 0."""
+    return (lam * np.log(J) - mu) / J
+
+
+@njit(cache=True, inline="always")
+def fixed_corotated_density(s0, s1, s2, J, mu, lam):
+    """Ψ = μ Σ (σᵢ − 1)² + λ/2 (J − 1)²."""
+    return mu * ((s0 - 1.0) ** 2 + (s1 - 1.0) ** 2 + (s2 - 1.0) ** 2) + 0.5 * lam * (J - 1.0) ** 2
+
+
+@njit(cache=True, inline="always")
+def fixed_corotated_stress(si, sj, sk, J, mu, lam):
+    """ψᵢ = ∂Ψ/∂σᵢ = 2μ(σᵢ − 1) + λ (J − 1) σⱼσₖ of the fixed corotated Ψ."""
+    return 2.0 * mu * (si - 1.0) + lam * (J - 1.0) * sj * sk
 
 
 @njit(cache=True, inline="always")
 def _psi_from_F(F, mu, lam, model, U, s, V, B):
     if model == NEO_HOOKEAN:
         # Ψ = μ/2 (tr FᵀF − 3) − μ ln J + λ/2 (ln J)²
-        J = det3(F)
-        if J <= 0.0:
-            return np.inf
         trc = 0.0
         for a in range(3):
             for b in range(3):
                 trc += F[a, b] * F[a, b]
-        lnJ = np.log(J)
-        return 0.5 * mu * (trc - 3.0) - mu * lnJ + 0.5 * lam * lnJ * lnJ
+        return neo_hookean_density(trc, det3(F), mu, lam)
     # Ψ = μ Σ (σᵢ − 1)² + λ/2 (J − 1)²
     _svd3(F, U, s, V, B)
-    J = det3(F)
-    return mu * ((s[0] - 1.0) ** 2 + (s[1] - 1.0) ** 2 + (s[2] - 1.0) ** 2) + 0.5 * lam * (J - 1.0) ** 2
+    return fixed_corotated_density(s[0], s[1], s[2], det3(F), mu, lam)
 
 
 @njit(cache=True, inline="always")
@@ -287,7 +311,7 @@ def _first_piola(F, mu, lam, model, P, U, s, V, B):
         J = det3(F)
         if J <= 0.0:
             return False
-        k = (lam * np.log(J) - mu) / J
+        k = neo_hookean_cofactor_factor(J, mu, lam)
         for a in range(3):
             for b in range(3):
                 P[a, b] = mu * F[a, b] + k * B[a, b]
@@ -295,9 +319,9 @@ def _first_piola(F, mu, lam, model, P, U, s, V, B):
     # P = U diag(ψ) Vᵀ,  ψᵢ = 2μ(σᵢ − 1) + λ (J − 1) σⱼσₖ
     _svd3(F, U, s, V, B)
     J = s[0] * s[1] * s[2]
-    p0 = 2.0 * mu * (s[0] - 1.0) + lam * (J - 1.0) * s[1] * s[2]
-    p1 = 2.0 * mu * (s[1] - 1.0) + lam * (J - 1.0) * s[0] * s[2]
-    p2 = 2.0 * mu * (s[2] - 1.0) + lam * (J - 1.0) * s[0] * s[1]
+    p0 = fixed_corotated_stress(s[0], s[1], s[2], J, mu, lam)
+    p1 = fixed_corotated_stress(s[1], s[0], s[2], J, mu, lam)
+    p2 = fixed_corotated_stress(s[2], s[0], s[1], J, mu, lam)
     for a in range(3):
         for b in range(3):
             P[a, b] = p0 * U[a, 0] * V[b, 0] + p1 * U[a, 1] * V[b, 1] + p2 * U[a, 2] * V[b, 2]
@@ -305,7 +329,7 @@ def _first_piola(F, mu, lam, model, P, U, s, V, B):
 
 
 @njit(cache=True, inline="always")
-def _sigma_hessian(s, mu, lam, model, A, twist, flip):
+def sigma_hessian(s, mu, lam, model, A, twist, flip):
     """A = ∂²Ψ/∂σ² (3×3), and per pair k = (i, j) in (0,1), (0,2), (1,2):
     twist[k] = (ψᵢ + ψⱼ)/(σᵢ + σⱼ), flip[k] = (ψᵢ − ψⱼ)/(σᵢ − σⱼ), in cancelled form."""
     J = s[0] * s[1] * s[2]
@@ -394,7 +418,7 @@ def _tet_hessian(F, Dm_inv_e, vol, mu, lam, model, project_psd, H, S):
             for c in range(12):
                 H[r, c] = np.nan
         return
-    _sigma_hessian(s, mu, lam, model, A, twist, flip)
+    sigma_hessian(s, mu, lam, model, A, twist, flip)
     # Wd[:, j] = Dm⁻¹ vⱼ so that uᵢvⱼᵀ Dm⁻ᵀ = uᵢ (Dm⁻¹vⱼ)ᵀ
     for a in range(3):
         for j in range(3):
@@ -629,7 +653,7 @@ def sigma_derivatives(F, mu, lam, model):
     twist = np.empty(3)
     flip = np.empty(3)
     _svd3(np.ascontiguousarray(F), S[0], s, S[1], S[2])
-    _sigma_hessian(s, mu, lam, model, A, twist, flip)
+    sigma_hessian(s, mu, lam, model, A, twist, flip)
     return s, A, twist, flip
 
 
@@ -645,7 +669,7 @@ def _cubic(a, b, c, d, t):
 
 
 @njit(cache=True)
-def _first_nonpositive(a, b, c, d):
+def first_nonpositive(a, b, c, d):
     """Largest α ∈ [0, 1] with f(t) = a t³ + b t² + c t + d > 0 on [0, α) (f(0) = d > 0
     assumed): 1 when f stays positive on [0, 1], else the first zero, from below.
 
@@ -734,7 +758,7 @@ def max_step_per_tet(x, p, tets, min_volume_ratio):
                 for j in range(3):
                     c += C[i, j] * Dp[i, j]
             # f(t) = det(Ds + t Dp) − r det Ds, f(0) = (1 − r) det Ds > 0
-            out[e] = _first_nonpositive(a, b, c, (1.0 - min_volume_ratio) * d0)
+            out[e] = first_nonpositive(a, b, c, (1.0 - min_volume_ratio) * d0)
     return out
 
 

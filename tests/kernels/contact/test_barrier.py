@@ -178,3 +178,24 @@ def test_mollifier_scalar():
     assert M.mollifier_scalar(1.0, eps_x) == pytest.approx(0.75)  # (2 − ½)·½
     assert M.mollifier_scalar_first_derivative(eps_x * (1 - 1e-12), eps_x) < 1e-11  # C¹
     assert M.mollifier_scalar_second_derivative(1.0, eps_x) == -2.0 / eps_x**2
+
+
+def test_lecture_barrier_derivatives_finite_differences_and_its_shape():
+    r_hat = 0.01
+    for r in np.linspace(0.05, 0.99, 12) * r_hat:
+        b, db, d2b = B.lecture_barrier_and_derivatives(r, r_hat)
+        h = 1e-7 * r
+        fd1 = (B.lecture_barrier_and_derivatives(r + h, r_hat)[0]
+               - B.lecture_barrier_and_derivatives(r - h, r_hat)[0]) / (2 * h)
+        fd2 = (B.lecture_barrier_and_derivatives(r + h, r_hat)[1]
+               - B.lecture_barrier_and_derivatives(r - h, r_hat)[1]) / (2 * h)
+        assert fd1 == pytest.approx(db, rel=1e-6)
+        assert fd2 == pytest.approx(d2b, rel=1e-6)
+        assert b > 0.0 and db < 0.0 and d2b > 0.0
+        assert B.barrier_of_form(B.BARRIER_LECTURE, r, r_hat) == (b, db, d2b)
+        assert B.barrier_of_form(B.BARRIER_IPC, r, r_hat) == B.barrier_and_derivatives(r, r_hat)
+    # C¹ at r̂ (value and slope vanish there), unbounded at 0
+    below = B.lecture_barrier_and_derivatives(r_hat * (1 - 1e-9), r_hat)
+    assert abs(below[0]) < 1e-17 and abs(below[1]) < 1e-6
+    assert B.lecture_barrier_and_derivatives(r_hat, r_hat) == (0.0, 0.0, 0.0)
+    assert B.lecture_barrier_and_derivatives(0.0, r_hat)[0] == np.inf
