@@ -3,8 +3,9 @@
 Everything else about the package is in pyproject.toml. The compiled kernels are one
 extension module, built by ``python -m ipcsim.compiler.build`` (numba's ahead-of-time
 compiler) from the sources being installed. It is optional: where it cannot be built, the
-install goes on and numba compiles each kernel on its first use instead. Set
-``IPCSIM_AOT=0`` to install without it.
+install goes on and numba compiles each kernel on its first use instead. A build is
+cached (``build.py``), so installing the same kernels again copies it instead of
+compiling. Set ``IPCSIM_AOT=0`` to install without it.
 """
 
 import os

@@ -13,17 +13,34 @@ is compiled with its own options (``error_model``, ``inline``) as under the JIT;
 cache is pointed at an empty folder, since a library loaded from the cache cannot be linked
 into the module. The module is built for this CPU where its features can be read
 (``aot.cpu_features``), and for a generic one of its architecture where not.
+
+A build is kept in a cache (``$IPCSIM_BUILD_CACHE``, else ``$XDG_CACHE_HOME/ipcsim`` or
+``~/.cache/ipcsim``) under a key of everything its code depends on: the sources digest,
+numba's and numpy's versions, the Python ABI, the machine and the CPU features it was built
+for. Installing unchanged kernels again (``pip install .`` then ``pip install ".[test]"``,
+or a reinstall) copies the cached build instead of compiling for minutes.
+``--no-cache`` builds afresh.
+
+This is the one module that imports ``numba.pycc`` (``numba_can_compile_ahead``), which
+numba's documentation marks as pending deprecation: where it is gone, the install goes on
+without a compiled module, numba compiles every kernel on first use, and the test
+``tests/compiler/test_install.py`` fails so that it is not missed.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import importlib
+import importlib.metadata
 import json
 import os
+import shutil
 import sys
+import sysconfig
 import tempfile
 import time
+import warnings
 from pathlib import Path
 
 from . import aot
@@ -93,13 +110,113 @@ def build(out_folder: Path, verbose: bool = False) -> Path:
     return path
 
 
+def c_compiler() -> str | None:
+    """The C compiler numba's ahead-of-time compiler would call, None if there is none."""
+    name = (os.environ.get("CC") or sysconfig.get_config_var("CC") or "cc").split()[0]
+    return shutil.which(name)
+
+
+def numba_can_compile_ahead() -> str | None:
+    """None where numba's ahead-of-time compiler can be used here, else why not."""
+    try:
+        with warnings.catch_warnings():  # its pending deprecation is why this is asked
+            warnings.simplefilter("ignore")
+            from numba.pycc import CC  # noqa: F401
+    except ImportError as exc:
+        return f"numba {_version('numba')} has no ahead-of-time compiler ({exc})"
+    if c_compiler() is None:
+        return "there is no C compiler on PATH"
+    return None
+
+
+def _version(package: str) -> str:
+    try:
+        return importlib.metadata.version(package)
+    except importlib.metadata.PackageNotFoundError:
+        return "absent"
+
+
+# ---- the build cache
+
+FILES = (aot.MANIFEST, aot.MATCHERS)  # beside the module file the manifest names
+
+
+def cache_root() -> Path:
+    """Where builds are kept (module docstring)."""
+    if os.environ.get("IPCSIM_BUILD_CACHE"):
+        return Path(os.environ["IPCSIM_BUILD_CACHE"])
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "ipcsim"
+
+
+def build_key() -> str:
+    """The digest of what a build's code depends on: equal keys, the same module."""
+    what = {"sources": aot.sources_digest(), "numba": _version("numba"),
+            "numpy": _version("numpy"), "python": sysconfig.get_config_var("EXT_SUFFIX"),
+            "machine": aot.machine(), "cpu_features": aot.cpu_features()}
+    return hashlib.sha256(json.dumps(what, sort_keys=True).encode()).hexdigest()[:32]
+
+
+def _build_files(folder: Path) -> list[Path] | None:
+    """The files of the build in ``folder`` (manifest first), None if it holds none."""
+    try:
+        manifest = json.loads((folder / aot.MANIFEST).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    files = [folder / name for name in (*FILES, manifest.get("module_file", ""))]
+    return files if all(f.is_file() for f in files) else None
+
+
+def from_cache(out_folder: Path, root: Path) -> Path | None:
+    """Copy the cached build for these sources into ``out_folder``; its manifest's path,
+    or None where the cache has none."""
+    files = _build_files(root / "compiled" / build_key())
+    if files is None:
+        return None
+    out_folder.mkdir(parents=True, exist_ok=True)
+    for f in reversed(files):  # the manifest last: a copy cut short is no build
+        shutil.copyfile(f, out_folder / f.name)
+    return out_folder / aot.MANIFEST
+
+
+def into_cache(out_folder: Path, root: Path) -> None:
+    """Keep the build in ``out_folder`` in the cache (all its files appear at once)."""
+    files = _build_files(out_folder)
+    target = root / "compiled" / build_key()
+    if files is None or target.exists():
+        return
+    staging = None
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        staging = Path(tempfile.mkdtemp(dir=target.parent, prefix=".staging-"))
+        for f in files:
+            shutil.copyfile(f, staging / f.name)
+        os.replace(staging, target)
+    except OSError as exc:  # a cache that cannot be written costs the next install time only
+        print(f"ipcsim: the build is not cached ({exc})", file=sys.stderr)
+        if staging is not None:
+            shutil.rmtree(staging, ignore_errors=True)
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m ipcsim.compiler.build")
     parser.add_argument("out_folder", type=Path)
     parser.add_argument("-v", "--verbose", action="store_true")
+    parser.add_argument("--no-cache", action="store_true",
+                        help="compile afresh, neither reading nor writing the build cache")
     args = parser.parse_args(argv)
     start = time.perf_counter()
+    root = None if args.no_cache else cache_root()
+    path = from_cache(args.out_folder, root) if root else None
+    if path is not None:
+        print(f"compiled kernels -> {path.parent} (from the build cache {root})")
+        return 0
+    why_not = numba_can_compile_ahead()
+    if why_not is not None:
+        print(f"ipcsim: cannot compile the kernels ahead of time: {why_not}", file=sys.stderr)
+        return 1
     path = build(args.out_folder, args.verbose)
+    if root is not None:
+        into_cache(args.out_folder, root)
     print(f"compiled kernels -> {path.parent} ({time.perf_counter() - start:.0f} s)")
     return 0
 

@@ -12,11 +12,12 @@ import platform
 import subprocess
 import sys
 import types
+from typing import ClassVar
 
 import numpy as np
 import pytest
-
 from examples import IPC_EXAMPLES
+
 from ipcsim.compiler import aot
 
 COMPILED = aot.compiled_folder() is not None
@@ -339,7 +340,7 @@ def test_a_kernels_matcher_is_made_at_its_first_call():
     """``match_on_first_call`` answers the first call as the generated matcher does and
     leaves that matcher in its place for the calls after it."""
     class Owner:
-        compiled = {(("float64", 1),): len}
+        compiled: ClassVar = {(("float64", 1),): len}
         py_func = types.SimpleNamespace(__module__="ipcsim.kernels.none", __name__="none")
 
     owner = Owner()
