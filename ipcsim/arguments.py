@@ -18,33 +18,30 @@ def _shown(value) -> str:
     return f"'{excerpt(value)}'" if isinstance(value, str) else excerpt(repr(value))
 
 
-def whole_number_at_least_1(value) -> int:
-    """A whole number >= 1: an int (not a bool), or its text as the command line gives it."""
+def _number(value, kind: type, parse, expected: str):
+    """``value`` read by ``parse``: a ``kind`` (not a bool), or its text as the command
+    line gives it."""
     if isinstance(value, str):
         try:
-            number = int(value)
+            return parse(value)
         except ValueError:
-            raise ArgumentError(f"expected a whole number, got {_shown(value)}") from None
-    elif isinstance(value, numbers.Integral) and not isinstance(value, bool):
-        number = int(value)
-    else:
-        raise ArgumentError(f"expected a whole number, got {_shown(value)}")
+            raise ArgumentError(f"expected {expected}, got {_shown(value)}") from None
+    if isinstance(value, kind) and not isinstance(value, bool):
+        return parse(value)
+    raise ArgumentError(f"expected {expected}, got {_shown(value)}")
+
+
+def whole_number_at_least_1(value) -> int:
+    """A whole number >= 1: an int, or its text."""
+    number = _number(value, numbers.Integral, int, "a whole number")
     if number < 1:
         raise ArgumentError(f"must be at least 1, got {number}")
     return number
 
 
 def finite_number(value) -> float:
-    """A finite number: a float or an int (not a bool), or its text."""
-    if isinstance(value, str):
-        try:
-            number = float(value)
-        except ValueError:
-            raise ArgumentError(f"expected a number, got {_shown(value)}") from None
-    elif isinstance(value, numbers.Real) and not isinstance(value, bool):
-        number = float(value)
-    else:
-        raise ArgumentError(f"expected a number, got {_shown(value)}")
+    """A finite number: a float or an int, or its text."""
+    number = _number(value, numbers.Real, float, "a number")
     if not math.isfinite(number):
         raise ArgumentError(f"must be a finite number, got {value}")
     return number

@@ -26,40 +26,12 @@ from .errors import IpcsimError, SceneError, one_line  # noqa: E402
 from .start_up import end_process, pause_collector, resume_collector  # noqa: E402
 
 
-def _cmd_check(args) -> int:
-    from .commands import check
+def _command_main(name: str):
+    """``main`` of ``commands/<name>.py``, imported only when chosen (each pulls in what
+    only it needs)."""
+    import importlib
 
-    return check.main(args)
-
-
-def _cmd_run(args) -> int:
-    from .commands import run
-
-    return run.main(args)
-
-
-def _cmd_sweep(args) -> int:
-    from .commands import sweep
-
-    return sweep.main(args)
-
-
-def _cmd_convert(args) -> int:
-    from .commands import convert
-
-    return convert.main(args)
-
-
-def _cmd_render(args) -> int:
-    from .commands import render
-
-    return render.main(args)
-
-
-def _cmd_compare(args) -> int:
-    from .commands import compare
-
-    return compare.main(args)
+    return importlib.import_module(f".commands.{name}", __package__).main
 
 
 def _positive_int(text: str) -> int:
@@ -132,7 +104,6 @@ def _add_check(sub, options: bool = True) -> None:
                         "OUT/scene.toml, or from SCENE (with --set) when given, which "
                         "must be the run's")
     _add_set(p)
-    p.set_defaults(func=_cmd_check)
 
 
 def _add_set(p) -> None:
@@ -174,7 +145,6 @@ def _add_run(sub, options: bool = True) -> None:
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
     p.add_argument("-v", "--verbose", action="store_true",
                    help="print every Newton iteration as it happens")
-    p.set_defaults(func=_cmd_run)
 
 
 def _add_sweep(sub, options: bool = True) -> None:
@@ -205,7 +175,6 @@ def _add_sweep(sub, options: bool = True) -> None:
     where.add_argument("--serial", action="store_true",
                        help="run the runs one after the other in this process (no Dask)")
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
-    p.set_defaults(func=_cmd_sweep)
 
 
 def _add_convert(sub, options: bool = True) -> None:
@@ -215,7 +184,6 @@ def _add_convert(sub, options: bool = True) -> None:
     p.add_argument("source", help="scene to read (.txt or .toml)")
     p.add_argument("target", help="scene to write (.txt or .toml); not the source itself")
     p.add_argument("--overwrite", action="store_true", help="replace an existing target")
-    p.set_defaults(func=_cmd_convert)
 
 
 def _add_render(sub, options: bool = True) -> None:
@@ -244,7 +212,6 @@ def _add_render(sub, options: bool = True) -> None:
                    help="image size in pixels (default 800 600)")
     p.add_argument("-o", "--output", metavar="DIR", help="image folder (default OUT/render)")
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
-    p.set_defaults(func=_cmd_render)
 
 
 def _add_compare(sub, options: bool = True) -> None:
@@ -262,7 +229,6 @@ def _add_compare(sub, options: bool = True) -> None:
     p.add_argument("--atol", type=_finite_float, default=0.0, metavar="A",
                    help="allowed vertex displacement in metres, added to rtol's (default 0)")
     p.add_argument("--plot", metavar="FILE.png", help="chart the differences over time")
-    p.set_defaults(func=_cmd_compare)
 
 
 _COMMANDS = {"check": _add_check, "run": _add_run, "sweep": _add_sweep,
@@ -280,11 +246,11 @@ def main(argv: list[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # --help, --version, or a usage error (already printed)
         return exc.code if isinstance(exc.code, int) else 2
-    if getattr(args, "func", None) is None:
+    if getattr(args, "command", None) is None:
         print(f"ipcsim: error: give a command: {', '.join(_COMMANDS)} (see ipcsim --help)",
               file=sys.stderr)
         return 2
-    if args.func is not _cmd_run:
+    if args.command != "run":
         resume_collector()  # a run resumes it once built, before its first step
     try:
         import numpy as np
@@ -293,7 +259,7 @@ def main(argv: list[str] | None = None) -> int:
         # own overflow warnings would only add lines
         with warnings.catch_warnings(), np.errstate(all="ignore"):
             warnings.showwarning = _show_warning
-            return int(args.func(args) or 0)
+            return int(_command_main(args.command)(args) or 0)
     except IpcsimError as exc:
         text = str(exc) if isinstance(exc, SceneError) else f"ipcsim: {exc}"
         print(one_line(text), file=sys.stderr)

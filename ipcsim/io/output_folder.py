@@ -154,10 +154,16 @@ def resolve_output_folder(requested, scene_path, *, mode: str) -> Path:
             raise OutputFolderError(f"output folder {path} is a study's folder (study.csv, "
                                     "runs/); a run needs a folder of its own: pass -o "
                                     "another folder")
+    _check_usable(path, "output folder")
+    return path
+
+
+def _check_usable(path: Path, what: str) -> None:
+    """A folder that holds something must be writable; one that does not, creatable."""
+    if holds_anything(path):
         _check_writable(path)
     else:
-        _check_creatable(path, "output folder")
-    return path
+        _check_creatable(path, what)
 
 
 def _check_writable(folder: Path) -> None:
@@ -384,9 +390,7 @@ def resolve_study_folder(requested, shared, *, overwrite: bool, study_name: str)
                                     "--overwrite to write the study there (its study.csv, "
                                     "study.png and runs/ are replaced, nothing else), or "
                                     "-o another folder")
-        _check_writable(path)
-    else:
-        _check_creatable(path, "study folder")
+    _check_usable(path, "study folder")
     return path
 
 

@@ -55,6 +55,17 @@ class _Part(Struct):
     dbc: list = field(default_factory=list)  # (local vertices, DirichletSpec)
     nbc: list = field(default_factory=list)  # (local vertices, NeumannSpec)
 
+    def select_boundary_conditions(self, spec: ShapeSpec, file_points: np.ndarray,
+                                   candidates: np.ndarray) -> None:
+        """The shape's DBC and NBC vertices: the ``candidates`` inside each box, in file
+        coordinates."""
+        for j, d in enumerate(spec.dbc):
+            self.dbc.append((select_in_box(file_points, candidates, d.box_min, d.box_max),
+                             d, j))
+        for j, nb in enumerate(spec.nbc):
+            self.nbc.append((select_in_box(file_points, candidates, nb.box_min, nb.box_max),
+                             nb, j))
+
 
 # ----------------------------------------------------------------------------- helpers
 
@@ -152,11 +163,7 @@ def _load_shape(scene: SceneSpec, i: int, spec: ShapeSpec, warnings: list[str]) 
     part = _Part(index=i, name=spec.mesh_path.stem, kind=kind, line=spec.line,
                  points=place(file_points, spec.translation, spec.rotation_deg, scale),
                  tets=tets, triangles=triangles, edges=edges)
-    for j, d in enumerate(spec.dbc):
-        part.dbc.append((select_in_box(file_points, candidates, d.box_min, d.box_max), d, j))
-    for j, nb in enumerate(spec.nbc):
-        part.nbc.append((select_in_box(file_points, candidates, nb.box_min, nb.box_max), nb, j))
-
+    part.select_boundary_conditions(spec, file_points, candidates)
     part.material = _shape_material(scene, spec, kind, label, warnings)
     return part
 

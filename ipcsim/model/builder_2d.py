@@ -53,7 +53,6 @@ from .builder import (
     _tet_bbox_diagonal,
     lame_parameters,
     place,
-    select_in_box,
 )
 from .generate import rectangle_mesh, rectangle_springs
 from .model import Model, TimeSettings
@@ -82,10 +81,7 @@ def _load_shape_2d(scene: SceneSpec, i: int, spec: ShapeSpec, warnings: list[str
                  kind=kind, line=spec.line, triangles=triangles,
                  edges=data.get("edges", np.zeros((0, 2), np.int64)),
                  points=place(file_points, spec.translation, spec.rotation_deg, spec.scale))
-    for j, d in enumerate(spec.dbc):
-        part.dbc.append((select_in_box(file_points, candidates, d.box_min, d.box_max), d, j))
-    for j, nb in enumerate(spec.nbc):
-        part.nbc.append((select_in_box(file_points, candidates, nb.box_min, nb.box_max), nb, j))
+    part.select_boundary_conditions(spec, file_points, candidates)
     part.material = _shape_material(scene, spec, kind, label, warnings)
     return part
 

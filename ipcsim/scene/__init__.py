@@ -13,16 +13,8 @@ from pathlib import Path
 from ..errors import ArgumentError, OutputError, SceneError
 from ..atomic import atomic_write_text
 from ..files import NotRegularFileError, read_regular_file
-from .spec import (
-    DirichletSpec,
-    InitialVelocitySpec,
-    MaterialSpec,
-    MeshObstacleSpec,
-    NeumannSpec,
-    PlaneSpec,
-    SceneSpec,
-    ShapeSpec,
-)
+from .spec import (DirichletSpec, InitialVelocitySpec, MaterialSpec, MeshObstacleSpec,
+                   NeumannSpec, PlaneSpec, SceneSpec, ShapeSpec)
 from .overrides import apply_overrides, parse_assignment
 from .toml_reader import parse_toml
 from .toml_writer import format_toml

@@ -44,28 +44,12 @@ from msgspec.structs import replace
 
 from ..errors import SceneError, excerpt as _q
 from . import paths
-from .spec import (
-    CONTACT_BARRIERS,
-    CONTACT_FORMULATIONS,
-    DEFAULTS,
-    DIMENSIONS,
-    INF,
-    INTEGRATORS,
-    MESH_KINDS,
-    MESH_KINDS_2D,
-    NODE_MASSES,
-    DirichletSpec,
-    InitialVelocitySpec,
-    MaterialSpec,
-    MeshObstacleSpec,
-    NeumannSpec,
-    PlaneSpec,
-    RectangleSpec,
-    SceneSpec,
-    ShapeSpec,
-)
+from .spec import (CONTACT_BARRIERS, CONTACT_FORMULATIONS, DEFAULTS, DIMENSIONS, INF,
+                   INTEGRATORS, MESH_KINDS, MESH_KINDS_2D, NODE_MASSES, DirichletSpec,
+                   InitialVelocitySpec, MaterialSpec, MeshObstacleSpec, NeumannSpec,
+                   PlaneSpec, RectangleSpec, SceneSpec, ShapeSpec)
 from .txt_reader import SOLVER_NAMES, suggest, unit_normal
-from .validate import LINEAR_SOLVERS, line_of, validate_scene
+from .validate import LINEAR_SOLVERS, line_of, validate_scene, warning_at
 
 __all__ = []
 
@@ -169,11 +153,7 @@ class _Reader:
         raise SceneError(self.source, line_of(self.lines, key), message)
 
     def warn(self, key: str, message: str) -> None:
-        where = self.source or "<scene>"
-        line = line_of(self.lines, key)
-        if line is not None:
-            where = f"{where}:{line}"
-        self.warnings.append(f"{where}: warning: {message}")
+        self.warnings.append(warning_at(self.source, self.lines, key, message))
 
     # typed access -------------------------------------------------------------------------
 

@@ -89,47 +89,13 @@ def _scene_to_dict_2d(s: SceneSpec, rel) -> dict:
     }
     if s.gravity_acceleration is not None:
         doc["scene"]["gravity_acceleration"] = _v2(s.gravity_acceleration)
-    doc["shapes"] = [_shape_table_2d(sh, rel) for sh in s.shapes]
+    doc["shapes"] = [_shape_table(sh, rel, 2) for sh in s.shapes]
     doc["planes"] = [_plane_table_2d(p) for p in s.planes]
     return doc
 
 
 def _v2(v) -> list[float]:
     return [float(v[0]), float(v[1])]
-
-
-def _shape_table_2d(sh: ShapeSpec, rel) -> dict:
-    if sh.rectangle is not None:
-        t: dict = {"kind": "rectangle", "size": _v2(sh.rectangle.size),
-                   "resolution": [int(n) for n in sh.rectangle.resolution]}
-    else:
-        t = {"path": rel(sh.mesh_path), "kind": sh.kind}
-    t.update(translation=_v2(sh.translation), rotation_deg=float(sh.rotation_deg[2]),
-             scale=_v2(sh.scale))
-    if sh.spring_stiffness is not None:
-        t["spring_stiffness"] = float(sh.spring_stiffness)
-    if sh.material is not None:
-        m = sh.material
-        t["material"] = {"density": float(m.density),
-                         "youngs_modulus": float(m.youngs_modulus),
-                         "poisson_ratio": float(m.poisson_ratio)}
-    if sh.linear_velocity is not None:
-        t["linear_velocity"] = _v2(sh.linear_velocity)
-    if sh.angular_velocity_deg is not None:
-        t["angular_velocity_deg"] = float(sh.angular_velocity_deg[2])
-    if sh.init_velocity is not None:
-        t["init_velocity"] = {"linear": _v2(sh.init_velocity.linear),
-                              "angular_deg": float(sh.init_velocity.angular_deg[2])}
-    if sh.dbc:
-        t["dbc"] = [{"box_min": _v2(d.box_min), "box_max": _v2(d.box_max),
-                     "linear_velocity": _v2(d.linear_velocity),
-                     "angular_velocity_deg": float(d.angular_velocity_deg[2]),
-                     "time_range": _v3(d.time_range)} for d in sh.dbc]
-    if sh.nbc:
-        t["nbc"] = [{"box_min": _v2(n.box_min), "box_max": _v2(n.box_max),
-                     "acceleration": _v2(n.acceleration),
-                     "time_range": _v3(n.time_range)} for n in sh.nbc]
-    return t
 
 
 def _plane_table_2d(p: PlaneSpec) -> dict:
@@ -183,34 +149,48 @@ def _contact_table(s: SceneSpec) -> dict:
     return contact
 
 
-def _shape_table(sh: ShapeSpec, rel) -> dict:
-    t: dict = {"path": rel(sh.mesh_path)}
-    if sh.mesh_kind is not None:
-        t["kind"] = sh.mesh_kind
-    t.update(translation=_v3(sh.translation), rotation_deg=_v3(sh.rotation_deg),
-             scale=_v3(sh.scale))
+def _about_z(angles) -> float:
+    return float(angles[2])
+
+
+def _shape_table(sh: ShapeSpec, rel, dimension: int = 3) -> dict:
+    """A shape's table: vectors with ``dimension`` components, and in 2D each rotation
+    (about z) one angle."""
+    vec, turn = (_v2, _about_z) if dimension == 2 else (_v3, _v3)
+    if sh.rectangle is not None:
+        t: dict = {"kind": "rectangle", "size": vec(sh.rectangle.size),
+                   "resolution": [int(n) for n in sh.rectangle.resolution]}
+    else:
+        t = {"path": rel(sh.mesh_path)}
+        kind = sh.kind if dimension == 2 else sh.mesh_kind
+        if kind is not None:
+            t["kind"] = kind
+    t.update(translation=vec(sh.translation), rotation_deg=turn(sh.rotation_deg),
+             scale=vec(sh.scale))
+    if sh.spring_stiffness is not None:
+        t["spring_stiffness"] = float(sh.spring_stiffness)
     if sh.material is not None:
         m = sh.material
         t["material"] = {"density": float(m.density),
                          "youngs_modulus": float(m.youngs_modulus),
                          "poisson_ratio": float(m.poisson_ratio)}
     if sh.linear_velocity is not None:
-        t["linear_velocity"] = _v3(sh.linear_velocity)
+        t["linear_velocity"] = vec(sh.linear_velocity)
     if sh.angular_velocity_deg is not None:
-        t["angular_velocity_deg"] = _v3(sh.angular_velocity_deg)
+        t["angular_velocity_deg"] = turn(sh.angular_velocity_deg)
     if sh.init_velocity is not None:
-        t["init_velocity"] = {"linear": _v3(sh.init_velocity.linear),
-                              "angular_deg": _v3(sh.init_velocity.angular_deg)}
+        t["init_velocity"] = {"linear": vec(sh.init_velocity.linear),
+                              "angular_deg": turn(sh.init_velocity.angular_deg)}
     if sh.mesh_sequence is not None:
         t["mesh_sequence"] = rel(sh.mesh_sequence)
     if sh.dbc:
-        t["dbc"] = [{"box_min": _v3(d.box_min), "box_max": _v3(d.box_max),
-                     "linear_velocity": _v3(d.linear_velocity),
-                     "angular_velocity_deg": _v3(d.angular_velocity_deg),
+        t["dbc"] = [{"box_min": vec(d.box_min), "box_max": vec(d.box_max),
+                     "linear_velocity": vec(d.linear_velocity),
+                     "angular_velocity_deg": turn(d.angular_velocity_deg),
                      "time_range": _v3(d.time_range)} for d in sh.dbc]
     if sh.nbc:
-        t["nbc"] = [{"box_min": _v3(n.box_min), "box_max": _v3(n.box_max),
-                     "acceleration": _v3(n.acceleration),
+        t["nbc"] = [{"box_min": vec(n.box_min), "box_max": vec(n.box_max),
+                     "acceleration": vec(n.acceleration),
                      "time_range": _v3(n.time_range)} for n in sh.nbc]
     return t
 

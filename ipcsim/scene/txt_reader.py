@@ -30,23 +30,10 @@ from msgspec.structs import replace
 
 from ..errors import SceneError, excerpt as _q
 from . import paths
-from .spec import (
-    CONSTRAINT_TYPES,
-    UNSUPPORTED_CONSTRAINT_TYPES,
-    ENERGIES,
-    INF,
-    INTEGRATORS,
-    MESH_KINDS,
-    SUPPORTED_SCRIPTS,
-    DirichletSpec,
-    InitialVelocitySpec,
-    MaterialSpec,
-    MeshObstacleSpec,
-    NeumannSpec,
-    PlaneSpec,
-    SceneSpec,
-    ShapeSpec,
-)
+from .spec import (CONSTRAINT_TYPES, UNSUPPORTED_CONSTRAINT_TYPES, ENERGIES, INF,
+                   INTEGRATORS, MESH_KINDS, SUPPORTED_SCRIPTS, DirichletSpec,
+                   InitialVelocitySpec, MaterialSpec, MeshObstacleSpec, NeumannSpec,
+                   PlaneSpec, SceneSpec, ShapeSpec)
 from .validate import LINEAR_SOLVERS, validate_scene
 
 __all__ = ['parse_txt', 'KEYWORDS', 'USAGE', 'suggest', 'unit_normal']

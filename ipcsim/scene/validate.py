@@ -123,6 +123,14 @@ def line_of(lines: Mapping[str, int], key: str) -> int | None:
     return None
 
 
+def warning_at(source, lines: Mapping[str, int], key: str, message: str) -> str:
+    """``file:line: warning: message``, the line that of ``key`` (``line_of``)."""
+    where = source or "<scene>"
+    line = line_of(lines, key)
+    return f"{where}:{line}: warning: {message}" if line is not None \
+        else f"{where}: warning: {message}"
+
+
 def _num(x) -> str:
     return repr(float(x)) if isinstance(x, float) else str(x)
 
@@ -147,13 +155,13 @@ class _Checker:
         )
 
     def warn(self, key: str, message: str) -> None:
-        where = self.source or "<scene>"
-        line = line_of(self.lines, key)
-        if line is not None:
-            where = f"{where}:{line}"
-        self.warnings.append(f"{where}: warning: {message}")
+        self.warnings.append(warning_at(self.source, self.lines, key, message))
 
     # value checks ---------------------------------------------------------------------
+
+    def one_of(self, key: str, value, allowed) -> None:
+        if value not in allowed:
+            self.fail(key, f"must be one of {', '.join(allowed)} (got {_q(repr(value))})")
 
     def number(self, key, x, *, positive=False, nonneg=False, lo=None, hi_open=None,
                plane_kind=None):
@@ -254,12 +262,8 @@ def _check_dimension(c: _Checker, s: SceneSpec) -> None:
     meshCO obstacles, mesh sequences and the baselines only in 3D."""
     if s.dimension not in DIMENSIONS:
         c.fail("scene.dimension", f"must be 2 or 3 (got {_q(repr(s.dimension))})")
-    if s.node_masses not in NODE_MASSES:
-        c.fail("material.node_masses", f"must be one of {', '.join(NODE_MASSES)} "
-                                       f"(got {_q(repr(s.node_masses))})")
-    if s.contact_barrier not in CONTACT_BARRIERS:
-        c.fail("contact.barrier", f"must be one of {', '.join(CONTACT_BARRIERS)} "
-                                  f"(got {_q(repr(s.contact_barrier))})")
+    c.one_of("material.node_masses", s.node_masses, NODE_MASSES)
+    c.one_of("contact.barrier", s.contact_barrier, CONTACT_BARRIERS)
     if s.dimension == 3:
         two_d = [("material.node_masses", s.node_masses != DEFAULTS.node_masses),
                  ("scene.gravity_acceleration", s.gravity_acceleration is not None),
@@ -314,12 +318,8 @@ def _check_time(c: _Checker, s: SceneSpec) -> None:
 
 def _check_material_and_integrator(c: _Checker, s: SceneSpec) -> None:
     c.material("material", s.density, s.youngs_modulus, s.poisson_ratio)
-    if s.energy not in ENERGIES:
-        c.fail("material.energy", f"must be one of {', '.join(ENERGIES)} "
-                                  f"(got {_q(repr(s.energy))})")
-    if s.integrator not in INTEGRATORS:
-        c.fail("integrator.type", f"must be one of {', '.join(INTEGRATORS)} "
-                                  f"(got {_q(repr(s.integrator))})")
+    c.one_of("material.energy", s.energy, ENERGIES)
+    c.one_of("integrator.type", s.integrator, INTEGRATORS)
     # Newmark's incremental potential is scaled by beta: beta = 0 would be explicit
     c.number("integrator.newmark_beta", s.newmark_beta, positive=True)
     c.number("integrator.newmark_gamma", s.newmark_gamma, nonneg=True)
@@ -366,19 +366,14 @@ def _check_solver(c: _Checker, s: SceneSpec) -> None:
         c.fail("solver.newton_tol", "needs at least one value")
     for x in s.newton_tol:
         c.number("solver.newton_tol", x, positive=True)
-    if s.constraint_solver not in CONSTRAINT_SOLVERS:
-        c.fail("solver.constraint_solver", f"must be one of {', '.join(CONSTRAINT_SOLVERS)} "
-                                           f"(got {_q(repr(s.constraint_solver))})")
+    c.one_of("solver.constraint_solver", s.constraint_solver, CONSTRAINT_SOLVERS)
     if s.constraint_type in UNSUPPORTED_CONSTRAINT_TYPES:
         c.fail("solver.constraint_type", f"{_q(repr(s.constraint_type))} is not implemented "
                                          f"by ipcsim (it implements {', '.join(CONSTRAINT_TYPES)})")
-    if s.constraint_type not in CONSTRAINT_TYPES:
-        c.fail("solver.constraint_type", f"must be one of {', '.join(CONSTRAINT_TYPES)} "
-                                         f"(got {_q(repr(s.constraint_type))})")
+    c.one_of("solver.constraint_type", s.constraint_type, CONSTRAINT_TYPES)
     c.number("solver.constraint_offset", s.constraint_offset, nonneg=True)
-    if s.linear_solver is not None and s.linear_solver not in LINEAR_SOLVERS:
-        c.fail("solver.linear_solver", f"must be one of {', '.join(LINEAR_SOLVERS)} "
-                                       f"(got {_q(repr(s.linear_solver))})")
+    if s.linear_solver is not None:
+        c.one_of("solver.linear_solver", s.linear_solver, LINEAR_SOLVERS)
 
 
 def _check_scene_switches(c: _Checker, s: SceneSpec) -> None:

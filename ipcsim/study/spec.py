@@ -47,6 +47,7 @@ from msgspec import Struct, field
 from ..errors import SceneError, excerpt
 from ..scene.toml_reader import locate_keys
 from ..scene.txt_reader import suggest
+from ..scene.validate import line_of
 
 __all__ = ["StudySpec", "Axis", "Record", "Chart", "load_study", "make_study", "SUMMARIES"]
 
@@ -128,12 +129,7 @@ class _Reader:
         self.path, self.lines = path, locate_keys(text)
 
     def fail(self, key: str, message: str):
-        line = None
-        while key and line is None:
-            line = self.lines.get(key)
-            cut = max(key.rfind("."), key.rfind("["))
-            key = key[:cut] if cut > 0 else ""
-        raise SceneError(self.path, line, message)
+        raise SceneError(self.path, line_of(self.lines, key), message)
 
     def table(self, data, key: str, allowed) -> dict:
         if not isinstance(data, dict):

@@ -91,9 +91,10 @@ def _console_with(monkeypatch, argv, seen: dict):
     import gc
 
     import ipcsim.cli as cli
+    from ipcsim.commands import check as check_command
     from ipcsim.simulation import Simulation
 
-    real_main, real_step, real_check = cli.main, Simulation.step, cli._cmd_check
+    real_main, real_step, real_check = cli.main, Simulation.step, check_command.main
 
     def main():
         seen["main"] = gc.isenabled()
@@ -110,7 +111,7 @@ def _console_with(monkeypatch, argv, seen: dict):
     with monkeypatch.context() as patch:
         patch.setattr(cli, "main", main)
         patch.setattr(Simulation, "step", step)
-        patch.setattr(cli, "_cmd_check", check)
+        patch.setattr(check_command, "main", check)
         patch.setattr(gc, "freeze", lambda: None)  # leave pytest's objects collectable
         patch.setattr(cli, "end_process", _exit_by_raising)
         try:
