@@ -18,7 +18,7 @@ from typing import NoReturn
 # OpenBLAS (numpy's, and kvxopt's under CHOLMOD) on one thread unless the user says
 # otherwise, set before numpy loads it: its idle worker spins, about 0.1 s of another
 # core at every start and, beside numba's threads, their time; CHOLMOD's factorisations
-# measured no slower on one BLAS thread (docs/benchmarks.md, "Another machine, ...").
+# measured no slower on one BLAS thread (2026-12-03; the figures are in git history).
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from . import __version__  # noqa: E402  (numpy loads later, after the BLAS setting)

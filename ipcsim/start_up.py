@@ -3,8 +3,8 @@ starts, and an exit without the interpreter's teardown.
 
 Loading numpy and ipcsim's modules makes some 40,000 container objects that live on and
 a few hundred that are garbage, yet the collector's passes over them took 10–14 ms of a
-tiny scene's 0.4 s run (docs/benchmarks.md, "The collector paused while the process
-starts"). So ``console`` pauses it before its first import (:func:`pause_collector`). A
+tiny scene's 0.4 s run (measured when this was written; the repository's history has
+the figures). So ``console`` pauses it before its first import (:func:`pause_collector`). A
 run resumes it before its first step, any other command before it begins its work, the
 kernels just before numba loads (its compiler makes garbage cycles by the hundred
 thousand), and ``console`` once ``main`` returns or raises, wherever it stopped

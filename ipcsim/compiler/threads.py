@@ -22,7 +22,7 @@ from __future__ import annotations
 import os
 import warnings
 
-# Below this many vertices a scene runs on one thread (docs/benchmarks.md, "threads").
+# Below this many vertices a scene runs on one thread (docs/benchmarks.md, "Threads").
 PARALLEL_FROM_VERTICES = 5000
 
 _layer_chosen = False
