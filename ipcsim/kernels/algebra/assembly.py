@@ -14,6 +14,19 @@ from __future__ import annotations
 import numpy as np
 from ipcsim.compiler.jit import njit
 
+from ipcsim.kernels.algebra.scatter import local_dof
+
+
+@njit(cache=True, inline="always")
+def _kept_entry(t, rows, cols, vals, scale, free_index):
+    """(free row, free column, value) of triplet t, the row −1 where it is not kept (a
+    kinematic row or a zero value); the column is −1 for a kinematic one."""
+    v = scale * vals[t]
+    r = free_index[rows[t]]
+    if r < 0 or v == 0.0:
+        return -1, -1, v
+    return r, free_index[cols[t]], v
+
 
 @njit(cache=True)
 def count_kept_columns(rows, cols, vals, scale, free_index, p, coupling, counts):
@@ -21,11 +34,9 @@ def count_kept_columns(rows, cols, vals, scale, free_index, p, coupling, counts)
     ``merge_columns`` keeps in free column c: a free row and a nonzero value; those of a
     free row and a kinematic column add scale·v·p[col] to coupling[row] instead."""
     for t in range(rows.shape[0]):
-        v = scale * vals[t]
-        r = free_index[rows[t]]
-        if r < 0 or v == 0.0:
+        r, c, v = _kept_entry(t, rows, cols, vals, scale, free_index)
+        if r < 0:
             continue
-        c = free_index[cols[t]]
         if c < 0:
             coupling[r] += v * p[cols[t]]
         else:
@@ -37,12 +48,8 @@ def bucket_kept(rows, cols, vals, scale, free_index, fill, bucket_rows, bucket_v
     """The kept triplets of ``count_kept_columns`` into column buckets, in triplet order:
     (free row, value) at fill[c], fill[c] advancing."""
     for t in range(rows.shape[0]):
-        v = scale * vals[t]
-        r = free_index[rows[t]]
-        if r < 0 or v == 0.0:
-            continue
-        c = free_index[cols[t]]
-        if c >= 0:
+        r, c, v = _kept_entry(t, rows, cols, vals, scale, free_index)
+        if r >= 0 and c >= 0:
             bucket_rows[fill[c]] = r
             bucket_vals[fill[c]] = v
             fill[c] += 1
@@ -61,11 +68,11 @@ def block_triplet_indices(stencils):
     cols = np.empty(size * k, dtype=np.int32)
     for a in range(k):
         for r in range(nd):
-            gr = 3 * stencils[a, r // 3] + r % 3
+            gr = local_dof(stencils, a, r)
             for c in range(nd):
                 o = size * a + nd * r + c
                 rows[o] = gr
-                cols[o] = 3 * stencils[a, c // 3] + c % 3
+                cols[o] = local_dof(stencils, a, c)
     return rows, cols
 
 
@@ -176,7 +183,7 @@ def add_blocks_dense(A, vals, scale, stencils, free_index, p, coupling):
     t = 0
     for k in range(stencils.shape[0]):
         for i in range(nd):
-            dofs[i] = 3 * stencils[k, i // 3] + i % 3
+            dofs[i] = local_dof(stencils, k, i)
             free[i] = free_index[dofs[i]]
         for i in range(nd):
             r = free[i]
@@ -295,7 +302,7 @@ def element_block_slots(elements, free_index, indptr, indices):
     slots = np.full(m * nv * nd, -1, dtype=np.int32)
     for e in range(m):
         for j in range(nd):
-            c = free_index[3 * elements[e, j // 3] + j % 3]
+            c = free_index[local_dof(elements, e, j)]
             if c < 0:
                 continue
             for k in range(nv):
@@ -334,7 +341,7 @@ def scatter_element_blocks(data, slots, vals, scale, elements, free_index, p, co
                     if r < 0:
                         r = -2  # a kinematic row: its entries are dropped
                 if r >= 0:
-                    coupling[r] += v * p[3 * elements[e, j // 3] + j % 3]
+                    coupling[r] += v * p[local_dof(elements, e, j)]
 
 
 @njit(cache=True)

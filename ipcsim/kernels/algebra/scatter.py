@@ -12,6 +12,13 @@ import numpy as np
 from ipcsim.compiler.jit import njit
 
 
+@njit(cache=True, inline="always")
+def local_dof(stencils, k, i):
+    """The global DOF of local DOF i of stencil k (an element, a contact stencil): DOF
+    a of its vertex i // 3 is 3·v + a."""
+    return 3 * stencils[k, i // 3] + i % 3
+
+
 @njit(cache=True)
 def add_local_gradients(grad, local, stencils):
     """grad[3 v + a] += local[i, 3 j + a] for v = stencils[i, j] ≥ 0, in place.
@@ -63,7 +70,7 @@ def block_matvec(vals, scale, elements, v):
     t = 0
     for e in range(elements.shape[0]):
         for j in range(nd):
-            dofs[j] = 3 * elements[e, j // 3] + j % 3
+            dofs[j] = local_dof(elements, e, j)
             v_e[j] = v[dofs[j]]
         for i in range(nd):
             total = 0.0

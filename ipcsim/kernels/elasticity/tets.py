@@ -54,7 +54,7 @@ import numpy as np
 from ipcsim.compiler.jit import njit, prange
 
 from ipcsim.kernels.algebra.linalg import cofactor3, det3, hypot, tet_edge_matrix
-from ipcsim.kernels.algebra.scatter import scatter_local_gradients
+from ipcsim.kernels.algebra.scatter import local_dof, scatter_local_gradients
 from ipcsim.compiler.twin import kernel
 
 NEO_HOOKEAN = 0
@@ -555,10 +555,10 @@ def tet_hessian_pattern(tets):
     for e in prange(m):
         base = 144 * e
         for r in range(12):
-            gr = 3 * tets[e, r // 3] + r % 3
+            gr = local_dof(tets, e, r)
             for c in range(12):
                 rows[base + 12 * r + c] = gr
-                cols[base + 12 * r + c] = 3 * tets[e, c // 3] + c % 3
+                cols[base + 12 * r + c] = local_dof(tets, e, c)
     return rows, cols
 
 
