@@ -330,6 +330,16 @@ def query_bvh(query, tree, same_set, self_collision):
 
 
 @kernel()
+def _overlapping(queries, held, same_kind, self_collision):
+    """The (query, held) index pairs of ``query_bvh`` with a tree built over the held
+    primitives; each side is (boxes, primitives, tags)."""
+    boxes, prims, tags = held
+    nodes, leaf_boxes, order, last_slot = build_bvh(boxes)
+    return query_bvh(queries, (nodes, leaf_boxes, order, last_slot, prims, tags),
+                     same_kind, self_collision)
+
+
+@kernel()
 def candidate_pairs(x0, x1, points, edges, triangles, tags, inflation, self_collision):
     """Every kept point-triangle and edge-edge pair of one mesh whose boxes over ``x0``
     and ``x1``, grown by ``inflation / 2``, overlap: ``(pt_rows, ee_rows, pt_index,
@@ -341,14 +351,10 @@ def candidate_pairs(x0, x1, points, edges, triangles, tags, inflation, self_coll
     point_boxes = primitive_boxes(x0, x1, points, inflation)
     edge_boxes = primitive_boxes(x0, x1, edges, inflation)
     tri_boxes = primitive_boxes(x0, x1, triangles, inflation)
-    nodes, leaf_boxes, order, last_slot = build_bvh(tri_boxes)
-    pt_index = query_bvh((point_boxes, points, point_tags),
-                         (nodes, leaf_boxes, order, last_slot, triangles, tri_tags),
-                         False, self_collision)
-    nodes, leaf_boxes, order, last_slot = build_bvh(edge_boxes)
-    ee_index = query_bvh((edge_boxes, edges, edge_tags),
-                         (nodes, leaf_boxes, order, last_slot, edges, edge_tags),
-                         True, self_collision)
+    pt_index = _overlapping((point_boxes, points, point_tags),
+                            (tri_boxes, triangles, tri_tags), False, self_collision)
+    ee_index = _overlapping((edge_boxes, edges, edge_tags),
+                            (edge_boxes, edges, edge_tags), True, self_collision)
     return (gather_rows(points, triangles, pt_index), gather_rows(edges, edges, ee_index),
             pt_index, ee_index)
 
@@ -364,10 +370,8 @@ def point_edge_candidate_pairs(x0, x1, points, edges, tags, inflation, self_coll
     point_tags, edge_tags = tags
     point_boxes = primitive_boxes(x0, x1, points, inflation)
     edge_boxes = primitive_boxes(x0, x1, edges, inflation)
-    nodes, leaf_boxes, order, last_slot = build_bvh(edge_boxes)
-    pe_index = query_bvh((point_boxes, points, point_tags),
-                         (nodes, leaf_boxes, order, last_slot, edges, edge_tags),
-                         False, self_collision)
+    pe_index = _overlapping((point_boxes, points, point_tags),
+                            (edge_boxes, edges, edge_tags), False, self_collision)
     return gather_rows(points, edges, pe_index), pe_index
 
 

@@ -45,6 +45,7 @@ from ipcsim.kernels.contact.distance import (
     point_triangle_distance_sq_hessian,
     point_triangle_distance_type,
 )
+from ipcsim.kernels.contact.intersection import solid_angle
 from ipcsim.kernels.contact.plane_barrier import (
     normal_gradient,
     normal_hessian_triplets,
@@ -210,22 +211,6 @@ def mesh_penalty_hessian(x, pt_pairs, ee_pairs, dhat, k, project):
 # Penetration depth (for checking runs, not for simulating)
 # =========================================================================================
 
-@njit(cache=True)
-def _solid_angle(p, a, b, c):
-    # signed solid angle of triangle abc seen from p (Van Oosterom & Strackee):
-    # tan(Ω/2) = det[a', b', c'] / (|a'||b'||c'| + (a'·b')|c'| + (b'·c')|a'| + (c'·a')|b'|)
-    ax, ay, az = a[0] - p[0], a[1] - p[1], a[2] - p[2]
-    bx, by, bz = b[0] - p[0], b[1] - p[1], b[2] - p[2]
-    cx, cy, cz = c[0] - p[0], c[1] - p[1], c[2] - p[2]
-    la = np.sqrt(ax * ax + ay * ay + az * az)
-    lb = np.sqrt(bx * bx + by * by + bz * bz)
-    lc = np.sqrt(cx * cx + cy * cy + cz * cz)
-    det = ax * (by * cz - bz * cy) - ay * (bx * cz - bz * cx) + az * (bx * cy - by * cx)
-    den = (la * lb * lc + (ax * bx + ay * by + az * bz) * lc
-           + (bx * cx + by * cy + bz * cz) * la + (cx * ax + cy * ay + cz * az) * lb)
-    return 2.0 * np.arctan2(det, den)
-
-
 @kernel(parallel=True)
 def penetration_depths(x, query, triangles):
     """For each query vertex, its distance to the closed, outward-oriented surface
@@ -235,8 +220,8 @@ def penetration_depths(x, query, triangles):
         p = x[query[i]]
         winding = 0.0
         for t in range(triangles.shape[0]):
-            winding += _solid_angle(p, x[triangles[t, 0]], x[triangles[t, 1]],
-                                    x[triangles[t, 2]])
+            winding += solid_angle(p, x[triangles[t, 0]], x[triangles[t, 1]],
+                                   x[triangles[t, 2]])
         if abs(winding) < 2.0 * np.pi:  # |winding number| = |Σ Ω| / 4π < ½: outside
             continue
         best = np.inf
