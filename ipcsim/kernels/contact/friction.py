@@ -188,11 +188,7 @@ def lag_mesh_pairs(x_lag, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa):
     j = ee_pairs.shape[0]
     pt_type, pt_d2, ee_type, ee_d2 = classify_and_distance(x_lag, pt_pairs, ee_pairs)
     m = k + j
-    keep = np.zeros(m, dtype=np.bool_)
-    verts = np.full((m, 4), -1, dtype=np.int64)
-    coeffs = np.zeros((m, 4))
-    basis = np.zeros((m, 3, 2))
-    lam = np.zeros(m)
+    keep, verts, coeffs, basis, lam = _lag_arrays(m)
     for i in prange(m):
         if i < k:
             pair = pt_pairs[i]
@@ -216,6 +212,13 @@ def lag_mesh_pairs(x_lag, pt_pairs, ee_pairs, ee_eps_x, s_hat, kappa):
     return keep, verts, coeffs, basis, lam
 
 
+@njit(cache=True)
+def _lag_arrays(m):
+    """(keep, verts, coeffs, basis, lam) of m lagged pairs, none kept yet."""
+    return (np.zeros(m, dtype=np.bool_), np.full((m, 4), -1, dtype=np.int64),
+            np.zeros((m, 4)), np.zeros((m, 3, 2)), np.zeros(m))
+
+
 @kernel(parallel=True, error_model="numpy")
 def lag_point_edge_pairs(x_lag, pe_pairs, weights, s_hat, kappa, form):
     """Lagged friction data of every point–edge pair of a 2D scene at x_lag (module
@@ -225,11 +228,7 @@ def lag_point_edge_pairs(x_lag, pe_pairs, weights, s_hat, kappa, form):
     lam = −w κ b'(d², ŝ) 2d. Rows of dropped pairs are left unspecified."""
     types, d2 = pe_classify_and_distance(x_lag, pe_pairs)
     m = pe_pairs.shape[0]
-    keep = np.zeros(m, dtype=np.bool_)
-    verts = np.full((m, 4), -1, dtype=np.int64)
-    coeffs = np.zeros((m, 4))
-    basis = np.zeros((m, 3, 2))
-    lam = np.zeros(m)
+    keep, verts, coeffs, basis, lam = _lag_arrays(m)
     for i in prange(m):
         if not d2[i] < s_hat:
             continue
