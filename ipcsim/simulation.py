@@ -359,16 +359,22 @@ class Simulation:
         if potential is None:
             if len(self._potentials) >= 8:  # adaptive steps: each length once or so
                 self._potentials = {_weights(self.integrator): self.potential}
-            potential = self._potentials[key] = for_step(self.potential, self.model,
-                                                         integrator)
+            potential = self._potentials[key] = for_step(
+                self.potential, self.model, integrator, self.integrator.force_weight)
         return potential
 
     def tolerance(self, step: int, h: float | None = None) -> float:
         """Newton's ‖p‖∞ tolerance of step ``step`` (tol·l·h, h = dt; for a shorter step
-        in proportion to its length); friction's static ramp has a test of its own
-        (``Friction.resolved``)."""
+        in proportion to its length; with adaptive steps at most a share of the error
+        allowed, ``StepSizeControl.solve_tolerance``); friction's static ramp has a test
+        of its own (``Friction.resolved``)."""
         tol = self.model.newton_tol(step)
-        return tol if h is None or h == self.h else tol * (h / self.h)
+        if h is None or (h == self.h and self.control is None):
+            return tol
+        tol *= h / self.h
+        if self.control is not None:
+            tol = min(tol, self.control.solve_tolerance(h) * self.model.bbox_diagonal)
+        return tol
 
     def minimise(self, problem: StepProblem, start, tol) -> tuple[NewtonResult, int]:
         """Newton from the start point; with friction, normal forces and tangents are

@@ -342,7 +342,8 @@ class StepProblem(Struct, frozen=True, eq=False, dict=True):
         point = self.at(point)
         origin = self.ctx.x_start if self.ctx.slip_origin is None else self.ctx.slip_origin
         lag = lag_friction(point.x, origin, point.collisions, self.contact.planes,
-                           self.contact.self_friction, self.stiffness.kappa,
+                           self.contact.self_friction,
+                           self.stiffness.kappa * self.base.barrier_weight,
                            self.contact.dhat)
         ctx = replace(self.ctx, friction=lag)
         return replace(self, ctx=ctx, data=self.potential.kernel.data(ctx)), \

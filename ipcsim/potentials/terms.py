@@ -53,14 +53,20 @@ def incremental_potential(model, integrator) -> IncrementalPotential:
     return IncrementalPotential(tuple(terms))
 
 
-def for_step(potential: IncrementalPotential, model, integrator) -> IncrementalPotential:
+def for_step(potential: IncrementalPotential, model, integrator,
+             scene_weight: float) -> IncrementalPotential:
     """``potential``'s terms weighted for a step of ``integrator`` (its length and
-    coefficients): w, damping's scale and friction's threshold replaced, nothing else."""
+    coefficients): w, damping's scale and friction's threshold replaced, and the
+    barriers weighted by w / ``scene_weight`` (the weight of a step of the scene's dt):
+    κ is the stiffness of the scene's step, and a barrier is a potential energy like Ψ,
+    whose force in a step must not grow as 1/h² when h shrinks. Nothing else changes."""
     w = integrator.force_weight
     terms = []
     for t in potential.terms:
         name = t.term.name
-        if name in FORCE_WEIGHTED:
+        if t.barrier:
+            t = replace(t, weight=w / scene_weight)
+        elif name in FORCE_WEIGHTED:
             t = replace(t, weight=w)
         elif name == "damping":
             t = replace(t, term=damping_term(model, integrator))
