@@ -199,7 +199,7 @@ class Simulation:
     # -- the step ----------------------------------------------------------------------------
     def step(self) -> StepReport:
         """One time step; a solver failure is reported with the number of this step."""
-        number = self.state.step + 1
+        number, before = self.state.step + 1, self.state
         try:
             report = self._step() if self.control is None else self._adaptive_step()
         except NonFiniteError as exc:
@@ -209,7 +209,11 @@ class Simulation:
         except SolverError as exc:
             self.outcome = exc.label or "failed"
             raise SolverError(f"step {number}: {exc}", label=exc.label) from None
-        self._check_energy(report.row)
+        try:
+            self._check_energy(report.row)
+        except SolverError:
+            self.state = before  # the run ends where its logs and frames do
+            raise
         return report
 
     def _step(self) -> StepReport:
