@@ -288,7 +288,11 @@ class Simulation:
         integrator = self.integrator.at(h, before.history)
         problem, start = self.problem(before, integrator)
         start = self.warm_start(problem, start, before, h)
-        result, lag_updates = self.minimise(problem, start, self.tolerance(before.step, h))
+        budget = None
+        if self.control is not None:
+            budget = min(self.control.iteration_budget, self.model.solver.max_newton_iterations)
+        result, lag_updates = self.minimise(problem, start, self.tolerance(before.step, h),
+                                            budget)
         if not np.isfinite(result.x).all():
             raise SolverError("positions became non-finite")
         after = self.advance(before, result.x, result.problem, integrator, t_end, number)
@@ -380,15 +384,17 @@ class Simulation:
             tol = min(tol, self.control.solve_tolerance(h) * self.model.bbox_diagonal)
         return tol
 
-    def minimise(self, problem: StepProblem, start, tol) -> tuple[NewtonResult, int]:
-        """Newton from the start point; with friction, normal forces and tangents are
+    def minimise(self, problem: StepProblem, start, tol,
+                 max_iterations: int | None = None) -> tuple[NewtonResult, int]:
+        """Newton from the start point (at most ``max_iterations`` iterations a solve where
+        given); with friction, normal forces and tangents are
         re-lagged at the solution fricIterAmt − 1 more times (≤ 0: until the solution stops
         moving, at most the cap). Returns the result and the number of friction lags. The
         SQP / QP baselines minimise with their own solver (x₀ then only seeds their
         constraints)."""
         if self.constrained is not None:
             return self.constrained.minimise(problem, start.x, tol), 0
-        result = self.newton.solve(problem, start, tol)
+        result = self.newton.solve(problem, start, tol, max_iterations)
         if self.potential.term("friction") is None:
             return result, 0
         settings = self.model.solver
@@ -399,7 +405,7 @@ class Simulation:
             problem, point = result.problem.lag_friction(result.point)
             lags += 1
             before = result.x
-            result = result.then(self.newton.solve(problem, point, tol))
+            result = result.then(self.newton.solve(problem, point, tol, max_iterations))
             if wanted <= 0 and np.abs(result.x - before).max() < tol:
                 break
         else:

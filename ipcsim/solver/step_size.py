@@ -20,7 +20,10 @@ dt. Newton's own error must not count as the integrator's: its ‖p‖∞ tolera
 most ``solve_share`` of the allowed error (``solve_tolerance``). A rejected step is
 tried again at h'. A step whose Newton solve stalls (the
 iteration cap, a failed line search, α ever smaller under CCD) is tried again at
-``stall_factor``·h. Below ``h_min`` the run fails instead.
+``stall_factor``·h; so is one whose Newton solve needs more than ``iteration_budget``
+iterations (a crawl of ever smaller α under CCD ends there, not at the scene's cap of
+thousands: a shorter step costs less than a crawl). Below ``h_min`` the run fails
+instead.
 """
 
 from __future__ import annotations
@@ -42,6 +45,7 @@ class StepSizeControl(Struct, frozen=True):
     stall_factor: float = 0.25
     h_min_ratio: float = 1e-8  # h_min = this · h_max
     solve_share: float = 0.1  # of the allowed error, at most Newton's tolerance
+    iteration_budget: int = 100  # Newton iterations of a step before it is tried shorter
 
     @property
     def h_min(self) -> float:

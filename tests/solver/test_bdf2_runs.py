@@ -139,3 +139,21 @@ def test_the_energy_watch_measures_gravitys_work_and_skips_driven_scenes():
 
     pushed = replace(model, nbc_sets=(NeumannSet(np.arange(3), (1.0, 0.0, 0.0)),))
     assert EnergyGrowth.of(pushed, x, v, 0.0) is None
+
+
+def test_a_step_over_the_newton_budget_is_tried_again_shorter():
+    """With adaptive steps a Newton solve stops at the controller's iteration budget
+    (a CCD crawl ends there, not at the scene's cap); the step is tried at a quarter."""
+    spec = load_scene(BAR, overrides={"integrator.type": "BDF2", "time.dt": 0.1,
+                                      "time.duration": 0.2, "time.tolerance": 1e-1})
+    sim = Simulation(build_model(spec))
+    sim.control = replace(sim.control, iteration_budget=2)
+    rows = []
+    while sim.state.step < spec.n_steps:
+        rows.extend(sim.step().rows)
+    stalled = [(r, after) for r, after in zip(rows, rows[1:]) if not r["converged"]]
+    assert stalled
+    for r, after in stalled:
+        assert r["newton_iterations"] == 2 and r["hit_iteration_cap"] and not r["accepted"]
+        assert after["dt"] <= 0.25 * r["dt"] * (1 + 1e-12)
+    assert all(r["newton_iterations"] <= 2 for r in rows)
