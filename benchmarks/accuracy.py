@@ -115,6 +115,7 @@ VARIANTS = (
     Variant("original", "NM"),
     Variant("ipcsim", "BE"),
     Variant("ipcsim", "NM"),
+    Variant("ipcsim", "BDF2"),
 )
 # each program's references: its most accurate fixed-step integrator
 REFERENCE_INTEGRATOR = {"original": "NM", "ipcsim": "NM"}

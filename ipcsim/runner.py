@@ -223,7 +223,8 @@ def _check_resume(run: _Run) -> int:
     checkpoint = read_checkpoint(run.out)
     check_resume(run.out, checkpoint, inputs_sha256=run.digest,
                  n_vertices=len(run.model.mass), scene_steps=run.scene.n_steps,
-                 frame_every=run.every, scene=run.scene_name)
+                 frame_every=run.every, scene=run.scene_name,
+                 adaptive=run.sim.control is not None)
     k = checkpoint["step"]
     if run.steps is not None and run.steps < k:
         raise CheckpointError(f"--steps {run.steps} lies before the checkpoint's step "
@@ -313,10 +314,10 @@ def _step_loop(run: _Run, step_log, newton_log, progress, stop) -> None:
     while sim.state.step < n_steps:
         report = sim.step()
         row = report.row
-        step_log.append(row)
+        step_log.append_rows(report.rows)  # with adaptive steps, every attempt's
         newton_log.append_rows(report.newton)
         k = sim.state.step
-        run.newton_total += row["newton_iterations"]
+        run.newton_total += sum(r.get("newton_iterations") or 0 for r in report.rows)
         _warn_about(run, row, k)
         for note in report.notes:  # the baselines' intersecting states
             run.reporter.warn(f"warning: step {k}: {note}")
@@ -327,7 +328,7 @@ def _step_loop(run: _Run, step_log, newton_log, progress, stop) -> None:
         due = framed and time.perf_counter() - run.checkpointed >= CHECKPOINT_SECONDS
         if due or k == n_steps or stopping:  # stopping: resume here, not at the frame
             _checkpoint(run, (step_log, newton_log))
-        progress.update(k, k * run.scene.dt, row["newton_iterations"], row["contacts_total"])
+        progress.update(k, sim.state.time, row["newton_iterations"], row["contacts_total"])
         if stopping:
             raise KeyboardInterrupt
 
@@ -345,7 +346,8 @@ def _simulate(run: _Run) -> tuple[int, str | None, str | None]:
     say(f"linear solver: {run.sim.linear_solver.name}; threads: {run.sim.threads}")
     run.sim.on_iteration = run.reporter.on_iteration
     progress = RunProgress(run.first_step, run.n_steps, run.reporter.progress,
-                           compiled=compile_seconds)
+                           compiled=compile_seconds, first_time=run.sim.state.time,
+                           end_time=run.n_steps * run.scene.dt)
     resume_collector()  # paused by the command while it started (start_up.py)
     with step_log, newton_log, StopRequest() as stop:
         try:
@@ -424,6 +426,8 @@ def _run_info(run: _Run, status: int, failure, wall0: float, started: str) -> No
                 newton_iterations=logged["newton_iterations"],
                 steps_hitting_iteration_cap=logged["hit_iteration_cap"],
                 steps_not_converged=logged["not_converged"],
+                steps_accepted=logged["accepted"], steps_rejected=logged["rejected"],
+                simulated_time=logged["simulated_time"],
                 status="ok" if status == 0 else failure,
                 outcome=run.sim.outcome if status in (0, 3) else failure)
     write_run_info(out, info)

@@ -31,10 +31,13 @@ from .model.kinematics import kinematic_targets, nbc_accelerations
 from .model.surface import index_set
 from .potentials.base import StepContext, Triplets
 from .potentials.step_problem import StepProblem
-from .potentials.terms import incremental_potential
-from .solver.integrator import fix_kinematic_velocities, kinetic_energy, make_integrator
+from .potentials.terms import for_step, incremental_potential
+from .solver.energy_growth import EnergyGrowth
+from .solver.integrator import (StepHistory, error_norm, fix_kinematic_velocities,
+                                kinetic_energy, make_integrator)
 from .solver.linear import DENSE_HESSIAN_UP_TO, DENSE_UP_TO, make_solver
 from .solver.newton import NewtonResult, NewtonSolver
+from .solver.step_size import StepSizeControl, landing_step
 from .solver.timing import PhaseTimer
 
 
@@ -46,9 +49,12 @@ def _read_only(a: np.ndarray) -> np.ndarray:
 
 class State(Struct, frozen=True, eq=False):
     """Everything the next step needs: positions, velocities, accelerations (n, 3), the
-    step counter (the boundary conditions' clock, t = step·h), κ, and the previous step's
+    step counter (steps of the scene's dt completed), κ, the previous step's
     non-inertial displacement (kept for warm starts 3 and 4 only, which read it; None
-    otherwise). Replaced, never modified, by a step.
+    otherwise), the simulated time (the boundary conditions' clock: step·dt with fixed
+    steps), BDF2's step before (None for BE and Newmark, and before the first step), and
+    with adaptive steps the length the next one tries and the attempts rejected so far.
+    Replaced, never modified, by a step.
 
     ``positions``, ``velocities`` (m, m/s; (n, 3) float64, vertex order of the model)
     and ``time`` (s) are the public, read-only face of it (``ipcsim.Simulation.state``).
@@ -60,7 +66,10 @@ class State(Struct, frozen=True, eq=False):
     step: int = 0
     kappa: float = 0.0
     dx_elastic: np.ndarray | None = None
-    time: float = 0.0  # s: step·h
+    time: float = 0.0  # s: step·dt with fixed steps, landed on exactly with adaptive ones
+    history: StepHistory | None = None  # BDF2: (xₙ₋₁, vₙ₋₁, hₙ₋₁) of the step before
+    h_next: float = 0.0  # s, adaptive steps: the next step's length to try (0: dt)
+    rejected: int = 0  # adaptive steps: attempts rejected so far (error or a stalled solve)
 
     @property
     def positions(self) -> np.ndarray:
@@ -76,17 +85,26 @@ class State(Struct, frozen=True, eq=False):
 class StepReport(Struct, frozen=True, eq=False):
     """What one step did: ``row`` is its steps.csv row (docs/output-format.md: step,
     time, newton_iterations, converged, contacts, energies, wall times ...), ``newton``
-    its newton.csv rows, ``result`` the Newton solver's own result."""
+    its newton.csv rows, ``result`` the Newton solver's own result. With adaptive steps
+    a step of the scene's dt is made of attempts: ``attempts`` holds the rows of those
+    before the last (rejected ones and accepted shorter steps), ``row`` the last's."""
 
     row: dict  # the steps.csv row of the step
     newton: tuple[dict, ...]  # its newton.csv rows
     result: NewtonResult
     notes: tuple[str, ...] = ()  # what went wrong without stopping the run (baselines)
+    attempts: tuple[dict, ...] = ()  # adaptive steps: the rows of the attempts before
+
+    @property
+    def rows(self) -> tuple[dict, ...]:
+        """Every attempt's steps.csv row, in order."""
+        return (*self.attempts, self.row)
 
 
 class Simulation:
     """The time stepping of a built model: ``step()`` advances ``state`` by one time step
-    h = ``model.dt`` (implicit Euler or Newmark, as the scene says) and returns the
+    h = ``model.dt`` (implicit Euler, Newmark or BDF2, as the scene says; with a time
+    tolerance in steps of error-controlled length that land on t + dt) and returns the
     step's ``StepReport``. ``state`` is the current ``State``; a step replaces it.
     ``linear_solver`` names a solver in place of the scene's (None: the scene's)."""
 
@@ -94,7 +112,11 @@ class Simulation:
         self.model = model
         self.threads = use_threads(model.n_vertices)
         self.integrator = make_integrator(model.time)
-        self.potential = incremental_potential(model, self.integrator.force_weight)
+        self.potential = incremental_potential(model, self.integrator)
+        # the potential weighted for other step lengths (BDF2's steps after its first,
+        # adaptive steps), by (w, h_v, damping weight): the last few
+        self._potentials = {_weights(self.integrator): self.potential}
+        self.control = step_size_control(model)  # None: fixed steps of dt
         self.contact = ContactSetup.from_model(model)
         self.timer = PhaseTimer()
         # the terms' Hessians go into a small system's dense matrix in one call (warm
@@ -128,6 +150,8 @@ class Simulation:
         # "Pass" until a step ends intersecting ("Intersecting") or fails with a label
         self.outcome = "Pass"
         check_initial_state(self)
+        self.energy_growth = EnergyGrowth.of(model, self.state.x, self.state.v,
+                                             self._elastic_energy(self.state.x))
 
     @property
     def h(self) -> float:
@@ -139,10 +163,33 @@ class Simulation:
         if checkpoint["x"].shape != (n, 3):
             raise ValueError(f"checkpoint has {len(checkpoint['x'])} vertices, the scene {n}")
         dx = checkpoint["dx_elastic"]
+        history = checkpoint.get("history")
+        if history is not None:
+            history = StepHistory(history[0].copy(), history[1].copy(), history[2])
         self._collisions_at = None  # found afresh where the checkpoint starts
         self.state = State(checkpoint["x"].copy(), checkpoint["v"].copy(),
                            checkpoint["a"].copy(), checkpoint["step"], checkpoint["kappa"],
-                           None if dx is None else dx.copy(), checkpoint["step"] * self.h)
+                           None if dx is None else dx.copy(),
+                           checkpoint.get("time", checkpoint["step"] * self.h), history,
+                           checkpoint.get("h_next", 0.0), checkpoint.get("rejected", 0))
+
+    def _elastic_energy(self, x) -> float:
+        elasticity = self.potential.term("elasticity")
+        return 0.0 if elasticity is None else elasticity.value(x)
+
+    def _check_energy(self, row: dict) -> None:
+        """Stop a run whose energy grew by orders of magnitude with no work done on it
+        (``solver/energy_growth.py``)."""
+        if self.energy_growth is None:
+            return
+        st = self.state
+        ratio = self.energy_growth.check(st.x, st.v, row["elastic_energy"])
+        if ratio is not None:
+            self.outcome = "Blow-up"
+            raise SolverError(
+                f"step {st.step}: the total energy grew {ratio:.3g}-fold with no work done "
+                f"on the scene: the {self.integrator.name} integrator is unstable at h = "
+                f"{row['dt']:.6g} s here; use BE or BDF2, or a smaller dt", label="Blow-up")
 
     def _observe(self, row: dict) -> None:
         if self.on_iteration is not None:
@@ -152,9 +199,9 @@ class Simulation:
     # -- the step ----------------------------------------------------------------------------
     def step(self) -> StepReport:
         """One time step; a solver failure is reported with the number of this step."""
-        number = self.state.step + 1
+        number, before = self.state.step + 1, self.state
         try:
-            return self._step()
+            report = self._step() if self.control is None else self._adaptive_step()
         except NonFiniteError as exc:
             exc.step = number
             self.outcome = "Blow-up" if self.constrained is not None else "failed"
@@ -162,19 +209,111 @@ class Simulation:
         except SolverError as exc:
             self.outcome = exc.label or "failed"
             raise SolverError(f"step {number}: {exc}", label=exc.label) from None
+        try:
+            self._check_energy(report.row)
+        except SolverError:
+            self.state = before  # the run ends where its logs and frames do
+            raise
+        return report
 
     def _step(self) -> StepReport:
+        """One step of length dt."""
         wall0 = time.perf_counter()
         self.timer.reset()
         before = self.state
-        problem, start = self.problem(before)
-        start = self.warm_start(problem, start)
-        result, lag_updates = self.minimise(problem, start, self.tolerance(before.step))
+        number = before.step + 1
+        after, result, lags, integrator = self._attempt(before, self.h, number * self.h,
+                                                        number)
+        self.state = after
+        self._collisions_at = _kept(result)  # the next step starts at x
+        return self._report(result, lags, wall0, integrator, before, after, True)
+
+    def _adaptive_step(self) -> StepReport:
+        """One step of the scene's dt, [t, t + dt], made of steps whose length the local
+        error controls (``solver/step_size.py``): each tries the length the last one
+        proposed, shortened to land on t + dt in equal parts; a step whose error is too
+        large, or whose Newton solve stalls (the iteration cap, a failed line search,
+        non-finite values), is tried again shorter; the last one lands on t + dt exactly,
+        so frames and the boundary conditions' windows keep the scene's clock."""
+        control, number = self.control, self.state.step + 1
+        end = number * self.h
+        reports, retry = [], False
+        while True:
+            wall0 = time.perf_counter()
+            self.timer.reset()
+            before = self.state
+            h = landing_step(before.time, before.h_next or self.h, end)
+            lands = h == end - before.time  # in one part
+            try:
+                after, result, lags, integrator = self._attempt(
+                    before, h, end if lands else before.time + h,
+                    number if lands else before.step)
+            except NonFiniteError as exc:
+                stalled, after, error = exc, None, None
+            else:
+                stalled = None if result.converged else "Newton stalled"
+                error = self._error(integrator, result.x, before, result.problem)
+            if stalled is None:
+                accepted, h_next = control.judge(h, error, integrator.order, retry)
+            else:
+                accepted, h_next = False, control.stalled(h)
+            if h_next < control.h_min:
+                if isinstance(stalled, NonFiniteError):
+                    raise stalled
+                why = stalled or f"the error estimate stayed above the tolerance ({error:.3g})"
+                raise SolverError(f"at t = {before.time:.9g} s the adaptive step fell below "
+                                  f"{control.h_min:.3g} s ({why}); raise the time tolerance "
+                                  "or lower dt")
+            if after is None:  # non-finite values: a row of what is known
+                reports.append(StepReport(
+                    {"step": number, "time": before.time + h, "dt": h, "converged": 0,
+                     "accepted": 0, "wall_s": time.perf_counter() - wall0}, (), None))
+            else:
+                reports.append(self._report(result, lags, wall0, integrator, before, after,
+                                            accepted, number))
+            retry = not accepted
+            if not accepted:
+                self.state = replace(before, h_next=h_next, rejected=before.rejected + 1)
+                continue
+            self.state = replace(after, h_next=h_next)
+            self._collisions_at = _kept(result)
+            if lands:
+                return replace(reports[-1], attempts=tuple(r.row for r in reports[:-1]),
+                               newton=tuple(row for r in reports for row in r.newton))
+
+    def _attempt(self, before: State, h: float, t_end: float, number: int):
+        """A step of length h from ``before``, ending at t_end with ``number`` steps of dt
+        completed; nothing of the simulation changes. (the state after it, the Newton
+        result, friction's lag updates, the step's integrator)."""
+        integrator = self.integrator.at(h, before.history)
+        problem, start = self.problem(before, integrator)
+        start = self.warm_start(problem, start, before, h)
+        budget = None
+        if self.control is not None:
+            budget = min(self.control.iteration_budget, self.model.solver.max_newton_iterations)
+        result, lag_updates = self.minimise(problem, start, self.tolerance(before.step, h),
+                                            budget)
         if not np.isfinite(result.x).all():
             raise SolverError("positions became non-finite")
-        self.state = self.advance(before, result.x, result.problem)
-        self._collisions_at = _kept(result)  # the next step starts at x
-        rows = tuple({**r, "step": self.state.step} for r in result.rows)
+        after = self.advance(before, result.x, result.problem, integrator, t_end, number)
+        return after, result, lag_updates, integrator
+
+    def _error(self, integrator, x_new, before: State, problem: StepProblem) -> float:
+        """The step's estimated local position error (``integrator.local_error``) relative
+        to the scene size, over the vertices it moved freely; None for Newmark."""
+        if getattr(integrator, "local_error", None) is None:
+            return None
+        free = ~problem.ctx.kinematic & (np.asarray(self.model.mass) > 0.0)
+        return error_norm(integrator.local_error(x_new, before.x, before.v),
+                          self.model.bbox_diagonal, free)
+
+    def _report(self, result: NewtonResult, lag_updates: int, wall0, integrator,
+                before: State, after: State, accepted: bool,
+                number: int | None = None) -> StepReport:
+        """The report of a step (with adaptive steps, of an attempt) from ``before`` to
+        ``after``; ``number``: the step of dt it belongs to (default after's)."""
+        number = after.step if number is None else number
+        rows = tuple({**r, "step": number} for r in result.rows)
         notes = ()
         if self.constrained is not None:
             crossing = self.constrained.intersections(result.x)
@@ -182,48 +321,80 @@ class Simulation:
                 notes = (f"the state intersects ({crossing})",)
                 if self.outcome == "Pass":
                     self.outcome = "Intersecting"
-        return StepReport(self._step_row(result, lag_updates, wall0), rows, result, notes)
+        error = self._error(integrator, result.x, before, result.problem)
+        row = self._step_row(result, lag_updates, wall0, after, integrator.h)
+        row.update(step=number, error_estimate=error, accepted=int(accepted))
+        return StepReport(row, rows, result, notes)
 
-    def problem(self, state: State):
+    def problem(self, state: State, integrator=None):
         """(the step's problem, its start at xₙ): kinematic targets and body forces at
-        t = step·h, the prediction x̃, damping and friction lagged at xₙ."""
-        model, h, x = self.model, self.h, state.x
-        kinematic, target = kinematic_targets(model, x, state.step * h, h)
+        the state's time, the prediction x̃, damping and friction lagged at xₙ (their
+        displacements measured from the integrator's lag origin); ``integrator``: of the
+        step (default: a step of dt)."""
+        if integrator is None:
+            integrator = self.integrator.at(self.h, state.history)
+        model, h, x = self.model, integrator.h, state.x
+        potential = self._potential_for(integrator)
+        kinematic, target = kinematic_targets(model, x, state.time, h)
         accel = np.zeros_like(x)
         accel += model.gravity
-        accel += nbc_accelerations(model, state.step * h, x)
+        accel += nbc_accelerations(model, state.time, x)
         accel[kinematic] = 0.0
-        x_tilde = self.integrator.predict(x, state.v, state.a)
+        x_tilde = integrator.predict(x, state.v, state.a)
         x_tilde[kinematic] = target[kinematic]
-        damping = self.potential.term("damping")
+        origin = integrator.lag_origin(x)
+        damping = potential.term("damping")
         if damping is not None:
-            damping = damping.lag(x, self.potential.term("elasticity").hessian(x))
-        ctx = StepContext(x_start=x, x_tilde=x_tilde, acceleration=accel, kinematic=kinematic,
-                          target=target, dhat=model.dhat, damping=damping)
+            damping = damping.lag(origin, potential.term("elasticity").hessian(x))
+        ctx = StepContext(x_start=x, slip_origin=origin, x_tilde=x_tilde,
+                          acceleration=accel, kinematic=kinematic, target=target,
+                          dhat=model.dhat, damping=damping)
         stiffness = replace(self.stiffness, kappa=state.kappa).new_step()
-        problem = StepProblem(self.potential, ctx, self.contact, stiffness, self.timer,
+        problem = StepProblem(potential, ctx, self.contact, stiffness, self.timer,
                               dense=self.one_call_hessian
                               and getattr(self.linear_solver, "dense", False),
-                              pullable=self._pullable, small_step=self._pull_step)
+                              pullable=self._pullable,
+                              small_step=0.01 * model.bbox_diagonal * h)
         start = problem.start(x, self._collisions_at)
-        if self.potential.term("friction") is not None:
+        if potential.term("friction") is not None:
             problem, start = problem.lag_friction(start)
         return problem, start
 
-    def tolerance(self, step: int) -> float:
-        """Newton's ‖p‖∞ tolerance of step ``step`` (tol·l·h); friction's static ramp has
-        a test of its own (``Friction.resolved``)."""
-        return self.model.newton_tol(step)
+    def _potential_for(self, integrator):
+        """The incremental potential weighted for a step of ``integrator``."""
+        key = _weights(integrator)
+        potential = self._potentials.get(key)
+        if potential is None:
+            if len(self._potentials) >= 8:  # adaptive steps: each length once or so
+                self._potentials = {_weights(self.integrator): self.potential}
+            potential = self._potentials[key] = for_step(
+                self.potential, self.model, integrator, self.integrator.force_weight)
+        return potential
 
-    def minimise(self, problem: StepProblem, start, tol) -> tuple[NewtonResult, int]:
-        """Newton from the start point; with friction, normal forces and tangents are
+    def tolerance(self, step: int, h: float | None = None) -> float:
+        """Newton's ‖p‖∞ tolerance of step ``step`` (tol·l·h, h = dt; for a shorter step
+        in proportion to its length; with adaptive steps at most a share of the error
+        allowed, ``StepSizeControl.solve_tolerance``); friction's static ramp has a test
+        of its own (``Friction.resolved``)."""
+        tol = self.model.newton_tol(step)
+        if h is None or (h == self.h and self.control is None):
+            return tol
+        tol *= h / self.h
+        if self.control is not None:
+            tol = min(tol, self.control.solve_tolerance(h) * self.model.bbox_diagonal)
+        return tol
+
+    def minimise(self, problem: StepProblem, start, tol,
+                 max_iterations: int | None = None) -> tuple[NewtonResult, int]:
+        """Newton from the start point (at most ``max_iterations`` iterations a solve where
+        given); with friction, normal forces and tangents are
         re-lagged at the solution fricIterAmt − 1 more times (≤ 0: until the solution stops
         moving, at most the cap). Returns the result and the number of friction lags. The
         SQP / QP baselines minimise with their own solver (x₀ then only seeds their
         constraints)."""
         if self.constrained is not None:
             return self.constrained.minimise(problem, start.x, tol), 0
-        result = self.newton.solve(problem, start, tol)
+        result = self.newton.solve(problem, start, tol, max_iterations)
         if self.potential.term("friction") is None:
             return result, 0
         settings = self.model.solver
@@ -234,7 +405,7 @@ class Simulation:
             problem, point = result.problem.lag_friction(result.point)
             lags += 1
             before = result.x
-            result = result.then(self.newton.solve(problem, point, tol))
+            result = result.then(self.newton.solve(problem, point, tol, max_iterations))
             if wanted <= 0 and np.abs(result.x - before).max() < tol:
                 break
         else:
@@ -243,24 +414,28 @@ class Simulation:
                               f"{cap} updates", stacklevel=2)
         return result, lags
 
-    def advance(self, before: State, x_new, problem: StepProblem) -> State:
-        """The state after the step that ends at x_new."""
-        h, ctx = self.h, problem.ctx
-        v_new, a_new = self.integrator.update(x_new, before.x, before.v, before.a)
-        if not self.integrator.kinematic_rates:
+    def advance(self, before: State, x_new, problem: StepProblem, integrator,
+                t_end: float, number: int) -> State:
+        """The state after the step of ``integrator`` from ``before`` that ends at x_new,
+        at time t_end, with ``number`` steps of dt completed."""
+        h, ctx = integrator.h, problem.ctx
+        v_new, a_new = integrator.update(x_new, before.x, before.v, before.a)
+        if not integrator.kinematic_rates:
             v_new, a_new = fix_kinematic_velocities(v_new, a_new, ctx.kinematic, x_new,
                                                     before.x, before.v, h)
         dx_elastic = (x_new - (before.x + h * before.v + h * h * ctx.acceleration)
                       if self.model.solver.warm_start in (3, 4) else None)
-        return State(x_new, v_new, a_new, before.step + 1, problem.stiffness.kappa,
-                     dx_elastic, (before.step + 1) * h)
+        history = integrator.after(before.x, before.v) if integrator.uses_history else None
+        return State(x_new, v_new, a_new, number, problem.stiffness.kappa, dx_elastic, t_end,
+                     history, before.h_next, before.rejected)
 
-    def _step_row(self, result: NewtonResult, lag_updates: int, wall0) -> dict:
-        model, st, final = self.model, self.state, result.final
+    def _step_row(self, result: NewtonResult, lag_updates: int, wall0, st: State,
+                  h: float) -> dict:
+        model, final = self.model, result.final
         phases = self.timer.reset()
         friction = result.problem.ctx.friction
         return {
-            "step": st.step, "time": st.step * self.h, "dt": self.h,
+            "step": st.step, "time": st.time, "dt": h,
             "newton_iterations": result.iterations, "converged": int(result.converged),
             "hit_iteration_cap": int(result.hit_iteration_cap),
             "line_search_min_alpha": result.min_alpha, "kappa": st.kappa,
@@ -281,10 +456,14 @@ class Simulation:
             "wall_contact_set_s": phases.get("contact_set", 0.0),
         }
 
-    def warm_start(self, problem: StepProblem, start):
-        """The point the step's Newton starts from for free vertices (``warmStart`` 0..5),
-        cut back by the feasibility bound so it never intersects or inverts."""
-        st, h, option = self.state, self.h, self.model.solver.warm_start
+    def warm_start(self, problem: StepProblem, start, state: State | None = None,
+                   h: float | None = None):
+        """The point the step of length h (default dt) from ``state`` (default the
+        current one) starts Newton from for free vertices (``warmStart`` 0..5), cut back
+        by the feasibility bound so it never intersects or inverts."""
+        st = self.state if state is None else state
+        h = self.h if h is None else h
+        option = self.model.solver.warm_start
         if option == 0:
             return replace(start, x=st.x.copy())
         guess = st.x + h * st.v
@@ -306,6 +485,21 @@ class Simulation:
         p[problem.kinematic] = 0.0
         alpha, ccd_alpha = problem.max_step(st.x, p.reshape(-1))
         return problem.start(st.x + min(1.0, alpha) * p, self._collisions_at, ccd_alpha)
+
+
+def _weights(integrator) -> tuple[float, float, float]:
+    """What the incremental potential of a step of ``integrator`` depends on."""
+    return integrator.force_weight, integrator.velocity_step, integrator.damping_weight
+
+
+def step_size_control(model) -> StepSizeControl | None:
+    """The controller of a model with a time tolerance (None: fixed steps of dt)."""
+    time_settings = model.time
+    if time_settings.tolerance is None:
+        return None
+    duration = time_settings.duration or time_settings.n_steps * time_settings.dt
+    return StepSizeControl(time_settings.tolerance / model.bbox_diagonal, duration,
+                           time_settings.dt)
 
 
 def _kept(result: NewtonResult):

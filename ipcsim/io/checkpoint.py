@@ -1,9 +1,11 @@
 """``checkpoint.npz``: the solver state a run can be resumed from.
 
 A step depends on the previous one only through the simulation's ``State``: positions,
-velocities and accelerations (Newmark needs aₙ), the step counter (the boundary
-conditions' clock, t = step·h), the barrier stiffness κ (adapted and carried from step to
-step) and the previous step's non-inertial displacement (warm start 3 and 4). Friction's
+velocities and accelerations (Newmark needs aₙ), the step counter and the simulated time
+(the boundary conditions' clock), the barrier stiffness κ (adapted and carried from step
+to step), the previous step's non-inertial displacement (warm start 3 and 4), BDF2's
+step before (xₙ₋₁, vₙ₋₁, hₙ₋₁), and with adaptive steps the next step's length and the
+count of rejected attempts. Friction's
 lagged normal forces and tangent bases are recomputed from xₙ at the start of every step,
 so they are not part of it. Everything is stored as the exact doubles, which is why a
 resumed run repeats the uninterrupted one to round-off.
@@ -32,7 +34,7 @@ __all__ = ["CHECKPOINT_NAME", "CheckpointError", "FORMAT_VERSION", "read_checkpo
            "write_checkpoint"]
 
 CHECKPOINT_NAME = "checkpoint.npz"
-FORMAT_VERSION = 2  # 2: with the inputs' digest
+FORMAT_VERSION = 3  # 2: with the inputs' digest; 3: time, BDF2's history, h_next, rejected
 _DIGEST = re.compile(r"[0-9a-f]{64}\Z")
 
 
@@ -46,9 +48,16 @@ def write_checkpoint(folder, state, inputs_sha256: str, *, fsync: bool = True) -
     n = len(state.x)
     dx = state.dx_elastic
     buffer = io.BytesIO()
+    history = state.history
+    none = np.zeros((0, 3))
     np.savez(buffer, format_version=FORMAT_VERSION, inputs_sha256=np.str_(inputs_sha256),
              step=state.step, kappa=state.kappa, x=state.x, v=state.v, a=state.a,
-             dx_elastic=np.zeros((0, 3)) if dx is None else dx, num_vertices=n)
+             dx_elastic=none if dx is None else dx, num_vertices=n,
+             time=float(state.time), h_next=float(state.h_next),
+             rejected=int(state.rejected),
+             x_prev=none if history is None else history.x,
+             v_prev=none if history is None else history.v,
+             h_prev=0.0 if history is None else float(history.h))
     return atomic_write_bytes(Path(folder) / CHECKPOINT_NAME, buffer.getvalue(), fsync=fsync)
 
 
@@ -86,7 +95,8 @@ def _positions(ck: dict, key: str, n: int, path: Path, allow_empty=False) -> np.
 def read_checkpoint(folder) -> dict:
     """The state stored in ``folder/checkpoint.npz``, checked to be whole: ``step``,
     ``kappa``, ``x``, ``v``, ``a``, ``dx_elastic`` (None when the run had not completed a
-    step, or its warm start reads none) and ``inputs_sha256``. Anything else is a
+    step, or its warm start reads none), ``time``, ``h_next``, ``rejected``, ``history``
+    ((xₙ₋₁, vₙ₋₁, hₙ₋₁), None without one) and ``inputs_sha256``. Anything else is a
     :class:`CheckpointError`."""
     path = Path(folder) / CHECKPOINT_NAME
     if not path.is_file():
@@ -105,11 +115,21 @@ def read_checkpoint(folder) -> dict:
         raise CheckpointError(f"{path}: damaged checkpoint (no digest of the inputs)")
     step = _scalar(ck, "step", "iu", path)
     kappa = _scalar(ck, "kappa", "fiu", path)
-    if step < 0 or not np.isfinite(kappa) or kappa < 0:
-        raise CheckpointError(f"{path}: damaged checkpoint (step {step}, kappa {kappa})")
+    t, h_next, h_prev = (_scalar(ck, key, "f", path) for key in ("time", "h_next", "h_prev"))
+    rejected = _scalar(ck, "rejected", "iu", path)
+    if step < 0 or not np.isfinite(kappa) or kappa < 0 or rejected < 0 \
+            or not all(np.isfinite(q) and q >= 0 for q in (t, h_next, h_prev)):
+        raise CheckpointError(f"{path}: damaged checkpoint (step {step}, kappa {kappa}, "
+                              f"time {t}, h_next {h_next}, h_prev {h_prev})")
     n = _scalar(ck, "num_vertices", "iu", path)
     x = _positions(ck, "x", n, path)
     dx = _positions(ck, "dx_elastic", n, path, allow_empty=True)
+    x_prev = _positions(ck, "x_prev", n, path, allow_empty=True)
+    v_prev = _positions(ck, "v_prev", n, path, allow_empty=True)
+    if len(x_prev) != len(v_prev) or (len(x_prev) > 0) != (h_prev > 0):
+        raise CheckpointError(f"{path}: damaged checkpoint (an incomplete step before)")
     return {"step": int(step), "kappa": float(kappa), "x": x,
             "v": _positions(ck, "v", n, path), "a": _positions(ck, "a", n, path),
-            "dx_elastic": dx if len(dx) else None, "inputs_sha256": str(digest)}
+            "dx_elastic": dx if len(dx) else None, "inputs_sha256": str(digest),
+            "time": float(t), "h_next": float(h_next), "rejected": int(rejected),
+            "history": (x_prev, v_prev, float(h_prev)) if len(x_prev) else None}

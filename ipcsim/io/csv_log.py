@@ -63,6 +63,8 @@ STEP_COLUMNS: tuple[str, ...] = (
     "friction_contacts",
     "friction_iterations",
     "friction_energy",
+    "error_estimate",
+    "accepted",
 )
 
 NEWTON_COLUMNS: tuple[str, ...] = (
@@ -210,20 +212,26 @@ class CsvLog:
 class StepLog(CsvLog):
     """``steps.csv``: one row per time step, columns :data:`STEP_COLUMNS`.
 
+    With adaptive time steps a row is an attempted step, ``accepted`` 0 for one that was
+    tried again shorter.
+
     ``totals`` sums the file's rows (those a resumed run kept, and those appended):
-    Newton iterations, steps that hit the iteration cap, steps that did not converge;
-    run.json's totals, without reading the file back (2 ms of a tiny scene's run)."""
+    Newton iterations, steps that hit the iteration cap, accepted steps that did not
+    converge, accepted and rejected steps, and the simulated time (of the last accepted
+    step); run.json's totals, without reading the file back (2 ms of a tiny scene's
+    run)."""
 
     FILE_NAME = "steps.csv"
 
     def __init__(self, path: str | os.PathLike, *, fsync: bool = False, keep_rows=None):
-        self.totals = {"newton_iterations": 0, "hit_iteration_cap": 0, "not_converged": 0}
+        self.totals = {"newton_iterations": 0, "hit_iteration_cap": 0, "not_converged": 0,
+                       "accepted": 0, "rejected": 0, "simulated_time": 0.0}
         kept = None
         if keep_rows is not None:
             def kept(cells):  # cells: column -> text
                 if not keep_rows(cells):
                     return False
-                self._add_to_totals(*(int(cells[c]) if cells[c] else None
+                self._add_to_totals(*(float(cells[c]) if cells[c] else None
                                       for c in _TOTALLED))
                 return True
         super().__init__(path, STEP_COLUMNS, fsync=fsync, keep_rows=kept)
@@ -234,14 +242,23 @@ class StepLog(CsvLog):
         for row in rows:
             self._add_to_totals(*map(row.get, _TOTALLED))
 
-    def _add_to_totals(self, iterations, hit_cap, converged) -> None:
-        """One row's part of the totals; an empty cell (None) adds nothing."""
-        self.totals["newton_iterations"] += int(iterations or 0)
-        self.totals["hit_iteration_cap"] += int(hit_cap or 0)
-        self.totals["not_converged"] += int(converged is not None and not converged)
+    def _add_to_totals(self, iterations, hit_cap, converged, accepted, t) -> None:
+        """One row's part of the totals; an empty cell (None) adds nothing (an empty
+        ``accepted``: an accepted step)."""
+        totals = self.totals
+        totals["newton_iterations"] += int(iterations or 0)
+        totals["hit_iteration_cap"] += int(hit_cap or 0)
+        if accepted is not None and not accepted:
+            totals["rejected"] += 1
+            return
+        totals["accepted"] += 1
+        totals["not_converged"] += int(converged is not None and not converged)
+        if t is not None:
+            totals["simulated_time"] = float(t)
 
 
-_TOTALLED = ("newton_iterations", "hit_iteration_cap", "converged")  # StepLog's totals
+# StepLog's totals
+_TOTALLED = ("newton_iterations", "hit_iteration_cap", "converged", "accepted", "time")
 
 
 class NewtonLog(CsvLog):

@@ -26,12 +26,20 @@ def _clock(seconds: float) -> str:
 
 class RunProgress:
     """``update(step, time, newton, contacts)`` after every completed step. The time left
-    leaves out the time spent compiling kernels (``compiled()``: seconds so far), which a
-    first run after installing pays once."""
+    follows the simulated time (from ``first_time`` to ``end_time``, s; by default the
+    steps: with adaptive steps their pace is not the clock's) and leaves out the time
+    spent compiling kernels (``compiled()``: seconds so far), which a first run after
+    installing pays once."""
 
     def __init__(self, first_step: int, total_steps: int, mode: str, stream=None,
-                 compiled=lambda: 0.0):
+                 compiled=lambda: 0.0, first_time: float | None = None,
+                 end_time: float | None = None):
         self.first, self.total, self.mode = first_step, total_steps, mode
+        # the clock the time left follows: simulated time where given, else steps
+        self.by_time = first_time is not None and end_time is not None
+        self.first_time, self.end_time = ((first_time, end_time) if self.by_time
+                                          else (first_step, total_steps))
+        self.now = self.first_time
         self.stream = stream or sys.stdout
         self.compiled = compiled
         self.started = self.last_line = time.perf_counter()
@@ -59,14 +67,17 @@ class RunProgress:
         return "bar" if getattr(stream, "isatty", lambda: False)() else "lines"
 
     def eta(self, step: int) -> float:
-        """Seconds left at the pace of the steps so far, compiling left out."""
-        done = step - self.first
-        if done <= 0:
+        """Seconds left at the pace of the simulated time so far (of the steps where no
+        time was given), compiling left out."""
+        now = self.now if self.by_time else step
+        done = now - self.first_time
+        if step <= self.first or not done > 0:
             return float("nan")
         stepping = max(0.0, time.perf_counter() - self.started - self.compiled())
-        return stepping / done * (self.total - step)
+        return stepping / done * (self.end_time - now)
 
     def update(self, step: int, t: float, newton: int, contacts: int) -> None:
+        self.now = t
         if self.mode == "bar":
             left = self.eta(step)
             self._bar.update(self._task, completed=step, t=f"{t:.4g}s", newton=newton,

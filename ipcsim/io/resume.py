@@ -35,10 +35,12 @@ _FRAME_NAME = re.compile(r"frame_(\d+)\.vtu\Z", re.ASCII)
 
 
 def check_resume(folder, checkpoint: dict, *, inputs_sha256: str, n_vertices: int,
-                 scene_steps: int, frame_every: int, scene="the scene") -> None:
+                 scene_steps: int, frame_every: int, scene="the scene",
+                 adaptive: bool = False) -> None:
     """Raise :class:`CheckpointError` unless the run in ``folder`` can continue from
     ``checkpoint`` (as :func:`~ipcsim.io.checkpoint.read_checkpoint` returns it);
-    ``scene`` names the scene in messages."""
+    ``scene`` names the scene in messages; ``adaptive``: the run's steps.csv has a row
+    per attempted step, several for a step of dt."""
     folder = Path(folder)
     k = checkpoint["step"]
     if checkpoint["inputs_sha256"] != inputs_sha256:
@@ -52,7 +54,7 @@ def check_resume(folder, checkpoint: dict, *, inputs_sha256: str, n_vertices: in
         raise CheckpointError(f"{folder}: the checkpoint is at step {k}, after the scene's "
                               f"last step {scene_steps}")
     _check_own_files(folder)
-    _check_log(folder / StepLog.FILE_NAME, STEP_COLUMNS, k, every_step_once=True)
+    _check_log(folder / StepLog.FILE_NAME, STEP_COLUMNS, k, every_step_once=not adaptive)
     _check_log(folder / NewtonLog.FILE_NAME, NEWTON_COLUMNS, k, every_step_once=False)
     _check_frames(folder / FRAMES_DIR, k, frame_every, checkpoint)
 

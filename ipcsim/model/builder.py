@@ -286,18 +286,21 @@ def time_settings(scene: SceneSpec, bbox_diagonal: float) -> TimeSettings:
 
 
 def refuse_what_is_not_simulated(scene: SceneSpec) -> None:
-    """BDF2 and adaptive steps are read, checked, converted and carried in the model,
-    but the time step does not take them yet: a scene that asks for them is refused
+    """Adaptive steps need an integrator with an error estimate (BE, BDF2) and a clock
+    that is time, not a step count: a scene that asks for them otherwise is refused
     here rather than run with something else."""
-    if scene.integrator == "BDF2":
+    if scene.time_tolerance is None:
+        return
+    if scene.integrator == "NM":
         raise _scene_error(scene, scene.line_of("integrator.type"),
-                           "the BDF2 integrator is read but not simulated by this version "
-                           "of ipcsim; use BE or NM")
-    if scene.time_tolerance is not None:
+                           "adaptive time steps (a time tolerance) need the BE or BDF2 "
+                           "integrator, which estimate their error; Newmark does not")
+    sequences = [i for i, s in enumerate(scene.shapes) if s.mesh_sequence is not None]
+    if sequences:
         raise _scene_error(scene, scene.line_of("time.tolerance"),
-                           "adaptive time steps (a time tolerance) are read but not "
-                           "simulated by this version of ipcsim; leave the tolerance out "
-                           "to run fixed steps of dt")
+                           "adaptive time steps (a time tolerance) cannot follow the mesh "
+                           f"sequence of shape {sequences[0] + 1}, whose frames are one per "
+                           "step of dt; leave the tolerance out")
 
 
 def _check_global_settings(scene: SceneSpec) -> None:

@@ -298,6 +298,9 @@ class StepContext(Struct, frozen=True, eq=False):
     to after construction. A field a term does not read may be left out (None)."""
 
     x_start: np.ndarray | None = None  # (n, 3) xₙ, positions at the start of the step
+    # (n, 3) where friction's slip is measured from: the integrator's lag origin (xₙ; x̂
+    # for BDF2, solver/integrator.py); None: x_start
+    slip_origin: np.ndarray | None = None
     x_tilde: np.ndarray | None = None  # (n, 3) x̃, the prediction (targets on kinematic rows)
     acceleration: np.ndarray | None = None  # (n, 3) gravity + active NBCs, 0 on kinematic
     kinematic: np.ndarray | None = None  # (n,) bool, vertices prescribed during the step

@@ -2,6 +2,9 @@
 
     ½ Δxᵀ D Δx,   Δx = x − xₙ,   D = (k/h) · ∇²Ψ(xₙ)
 
+(for BDF2 Δx = x − x̂ = βh vₙ₊₁ and the scale βh·k/h_scene², so that the damping
+coefficient is the scene's at any step: ``solver/integrator.damping_scale``)
+
 where ∇²Ψ is the (PSD-projected) Hessian of the elastic energy itself at the start of the
 step, without the h² (β h² for Newmark) that weighs elasticity in the potential, and k
 the damping stiffness: the original's ``computeDampingMtr`` scales the elastic Hessian

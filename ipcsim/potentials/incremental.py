@@ -48,6 +48,12 @@ class IncrementalPotential(Struct, frozen=True, eq=False, dict=True):
         """This potential plus ``term`` (last)."""
         return IncrementalPotential(self.terms + (term,))
 
+    @property
+    def barrier_weight(self) -> float:
+        """The weight of the barriers (1 where there are none): κ times it is their
+        stiffness in this potential."""
+        return next((t.weight for t in self.terms if t.barrier), 1.0)
+
     def term(self, name: str) -> Potential | None:
         """The term called ``name`` ("elasticity", "friction", ...), None if absent."""
         return self._terms_by_name.get(name)

@@ -337,10 +337,13 @@ class StepProblem(Struct, frozen=True, eq=False, dict=True):
                        data=potential.kernel.data(self.ctx))
 
     def lag_friction(self, point: Point) -> tuple["StepProblem", Point]:
-        """Friction lagged at the point with the κ in force; displacements from xₙ."""
+        """Friction lagged at the point with the κ in force; slips measured from the
+        step's slip origin (xₙ; x̂ for BDF2)."""
         point = self.at(point)
-        lag = lag_friction(point.x, self.ctx.x_start, point.collisions, self.contact.planes,
-                           self.contact.self_friction, self.stiffness.kappa,
+        origin = self.ctx.x_start if self.ctx.slip_origin is None else self.ctx.slip_origin
+        lag = lag_friction(point.x, origin, point.collisions, self.contact.planes,
+                           self.contact.self_friction,
+                           self.stiffness.kappa * self.base.barrier_weight,
                            self.contact.dhat)
         ctx = replace(self.ctx, friction=lag)
         return replace(self, ctx=ctx, data=self.potential.kernel.data(ctx)), \

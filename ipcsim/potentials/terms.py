@@ -1,8 +1,13 @@
 """Which terms a scene's incremental potential has, and in which formulation.
 
-``incremental_potential(model, force_weight)`` builds exactly the terms the model needs,
+``incremental_potential(model, integrator)`` builds exactly the terms the model needs,
 in the order they are summed: inertia, body forces, elasticity, damping, contact with
-planes and between meshes, friction. Contact is IPC's barrier (scaled by κ, its steps
+planes and between meshes, friction. What depends on the step's length and integrator
+(``solver/integrator.py``) is said once here: the weight w of elasticity and body forces
+(h², βh² for Newmark, (βh)² for BDF2), friction's threshold ε_v·h_v and Rayleigh
+damping's scale, with h_v the integrator's ``velocity_step`` (h; βh for BDF2);
+``for_step`` gives a potential those of another step, its terms (and their caches)
+otherwise the same. Contact is IPC's barrier (scaled by κ, its steps
 bounded by CCD) unless the scene asks for the penalty baseline
 (``contact.formulation = "penalty"``), and absent with the SQP / QP baselines
 (``constraintSolver SQP|QP``, contact as constraints): that choice is made here and
@@ -11,9 +16,11 @@ nowhere else.
 
 from __future__ import annotations
 
+from msgspec.structs import replace
 import numpy as np
 
 from ..contact.planes import Planes
+from ..solver.integrator import damping_scale
 from .body_force import BodyForce
 from .damping import Damping
 from .elasticity import Elasticity
@@ -24,22 +31,60 @@ from .mesh_contact import MeshContact
 from .plane_contact import PlaneContact
 
 
-def incremental_potential(model, force_weight: float) -> IncrementalPotential:
-    """The terms of ``model``'s incremental potential; ``force_weight`` w weighs
-    elasticity and body forces (h² for backward Euler, βh² for Newmark)."""
-    terms = [WeightedTerm(Inertia(model.mass)), WeightedTerm(BodyForce(model.mass), force_weight)]
+# the terms weighted by w, the integrator's force weight
+FORCE_WEIGHTED = ("body force", "elasticity")
+
+
+def incremental_potential(model, integrator) -> IncrementalPotential:
+    """The terms of ``model``'s incremental potential for a step of ``integrator``."""
+    w = integrator.force_weight
+    terms = [WeightedTerm(Inertia(model.mass)), WeightedTerm(BodyForce(model.mass), w)]
     elasticity = elastic_term(model)
     if elasticity is not None:
-        terms.append(WeightedTerm(elasticity, force_weight))
+        terms.append(WeightedTerm(elasticity, w))
         if model.needs_damping:
-            terms.append(WeightedTerm(Damping.of(model.damping_stiffness, model.dt)))
+            terms.append(WeightedTerm(damping_term(model, integrator)))
     terms.extend(contact_terms(model))
     if model.needs_friction:  # only where some μ > 0
-        # ε_v·h with the scene's own h
         terms.append(WeightedTerm(Friction(
-            model.epsv * model.dt, ramp_resolution=model.solver.friction_ramp_resolution,
+            friction_threshold(model, integrator),
+            ramp_resolution=model.solver.friction_ramp_resolution,
             body=np.array(model.vertex_shape, dtype=np.int64))))  # writeable: one kernel variant
     return IncrementalPotential(tuple(terms))
+
+
+def for_step(potential: IncrementalPotential, model, integrator,
+             scene_weight: float) -> IncrementalPotential:
+    """``potential``'s terms weighted for a step of ``integrator`` (its length and
+    coefficients): w, damping's scale and friction's threshold replaced, and the
+    barriers weighted by w / ``scene_weight`` (the weight of a step of the scene's dt):
+    κ is the stiffness of the scene's step, and a barrier is a potential energy like Ψ,
+    whose force in a step must not grow as 1/h² when h shrinks. Nothing else changes."""
+    w = integrator.force_weight
+    terms = []
+    for t in potential.terms:
+        name = t.term.name
+        if t.barrier:
+            t = replace(t, weight=w / scene_weight)
+        elif name in FORCE_WEIGHTED:
+            t = replace(t, weight=w)
+        elif name == "damping":
+            t = replace(t, term=damping_term(model, integrator))
+        elif name == "friction":
+            t = replace(t, term=replace(t.term, eps=friction_threshold(model, integrator)))
+        terms.append(t)
+    return IncrementalPotential(tuple(terms))
+
+
+def friction_threshold(model, integrator) -> float:
+    """ε_v·h_v: the slip per step below which friction is static (ε_v·h for BE and
+    Newmark at the scene's h, the original's)."""
+    return model.epsv * integrator.velocity_step
+
+
+def damping_term(model, integrator) -> Damping:
+    """Rayleigh damping whose coefficient is the scene's at every step length."""
+    return Damping(damping_scale(integrator, model.damping_stiffness, model.dt))
 
 
 def elastic_term(model) -> Elasticity | None:

@@ -103,12 +103,15 @@ def damping_scale(integrator, stiffness: float, h_scene: float) -> float:
     """The scale of lagged Rayleigh damping's matrix D = scale·∇²Ψ(xₙ) in a step of
     ``integrator``: its ``damping_weight`` times α = k / h_scene², the damping
     coefficient the scene's ``dampingStiff`` k means at the scene's own step (BE and
-    Newmark at h_scene: k / h, the original's ``computeDampingMtr``)."""
-    return integrator.damping_weight * stiffness / (h_scene * h_scene)
+    Newmark at h_scene: k / h, the original's ``computeDampingMtr``, to the bit: the
+    ratio of the steps is exactly 1 there)."""
+    return stiffness / h_scene * (integrator.damping_weight / h_scene)
 
 
 class BackwardEuler:
     name = "BE"
+    order = 1  # of its local error estimate's step: err ∝ h^(order + 1)
+    uses_history = False  # reads no step before the current one
     # its update is v = Δx/h, a = Δv/h for every vertex: the prescribed vertices' rates
     # already (``fix_kinematic_velocities`` would compute them again, bit for bit)
     kinematic_rates = True
@@ -155,6 +158,7 @@ class BDF2:
     """Variable-step BDF2 (module docstring); without ``history`` its step is BE's."""
 
     name = "BDF2"
+    uses_history = True  # x̃ and the rates read the step before (``StepHistory``)
     # its update gives the prescribed vertices BDF2's rates (exact for motion linear in
     # time), which ``fix_kinematic_velocities`` must not replace by Δx/h
     kinematic_rates = True
@@ -163,6 +167,11 @@ class BDF2:
         self.h, self.history = h, history
         self.c1, self.c2, self.beta = ((1.0, 0.0, 1.0) if history is None
                                        else bdf2_coefficients(h, history.h))
+
+    @property
+    def order(self) -> int:
+        """2; 1 for the BE step that starts it (no history)."""
+        return 1 if self.history is None else 2
 
     @property
     def velocity_step(self) -> float:
@@ -206,6 +215,7 @@ class BDF2:
 
 class Newmark:
     name = "NM"
+    uses_history = False
     kinematic_rates = False  # its update gives the prescribed vertices Newmark's rates
 
     def __init__(self, h: float, beta: float = 0.25, gamma: float = 0.5):

@@ -153,14 +153,18 @@ class NewtonSolver:
         self._recent = [dofs, *self._recent[:1]]
         return dofs
 
-    def solve(self, problem, point, tol: float) -> NewtonResult:
+    def solve(self, problem, point, tol: float,
+              max_iterations: int | None = None) -> NewtonResult:
         """Minimise ``problem`` from ``point`` (``problem.start(x0)``) until ‖p‖∞ < tol
-        with the prescribed motion complete, or the iteration cap."""
+        with the prescribed motion complete, or the iteration cap (``max_iterations``
+        where given: an adaptive step's budget)."""
+        cap = self.settings.max_newton_iterations if max_iterations is None \
+            else max_iterations
         kin_dofs = self._dofs(problem.kinematic).prescribed
         target, x0 = problem.target.reshape(-1), point.x.reshape(-1)
         run = _Progress(np.abs(target[kin_dofs] - x0[kin_dofs]).max(initial=0.0), tol)
         run.kinematic_complete = run.prescribed == 0.0
-        for it in range(self.settings.max_newton_iterations):
+        for it in range(cap):
             problem, ev = self._evaluate(problem, point, 2)
             point = ev.point
             self._complete_last_row(run, ev.contacts)
@@ -201,7 +205,7 @@ class NewtonSolver:
                 run.iterations = it + 1
                 return self._finish(problem, point, run, converged=True)
             problem, point = problem.follow_up(point, p, first=it == 0)  # may pull
-        run.iterations = self.settings.max_newton_iterations
+        run.iterations = cap
         return self._finish(problem, point, run, converged=False, hit_cap=True)
 
     def _evaluate(self, problem, point, order: int):

@@ -16,9 +16,14 @@ BE step that starts it), err / allowed ∝ h^p, and the next step is
 
 with safety 0.9, grow 2 (variable-step BDF2 is zero-stable for step ratios below
 1 + √2), shrink 0.2, no growth right after a rejected step and never above the scene's
-dt. A rejected step is tried again at h'. A step whose Newton solve stalls (the
+dt. Newton's own error must not count as the integrator's: its ‖p‖∞ tolerance is at
+most ``solve_share`` of the allowed error (``solve_tolerance``). A rejected step is
+tried again at h'. A step whose Newton solve stalls (the
 iteration cap, a failed line search, α ever smaller under CCD) is tried again at
-``stall_factor``·h. Below ``h_min`` the run fails instead.
+``stall_factor``·h; so is one whose Newton solve needs more than ``iteration_budget``
+iterations (a crawl of ever smaller α under CCD ends there, not at the scene's cap of
+thousands: a shorter step costs less than a crawl). Below ``h_min`` the run fails
+instead.
 """
 
 from __future__ import annotations
@@ -39,6 +44,8 @@ class StepSizeControl(Struct, frozen=True):
     shrink: float = 0.2
     stall_factor: float = 0.25
     h_min_ratio: float = 1e-8  # h_min = this · h_max
+    solve_share: float = 0.1  # of the allowed error, at most Newton's tolerance
+    iteration_budget: int = 100  # Newton iterations of a step before it is tried shorter
 
     @property
     def h_min(self) -> float:
@@ -47,6 +54,10 @@ class StepSizeControl(Struct, frozen=True):
     def allowed(self, h: float) -> float:
         """The local error (relative to l) a step of length h may make."""
         return self.tolerance * h / self.duration
+
+    def solve_tolerance(self, h: float) -> float:
+        """Newton's ‖p‖∞ tolerance (relative to l) in a step of length h at most."""
+        return self.solve_share * self.allowed(h)
 
     def judge(self, h: float, error: float, order: int,
               after_rejection: bool = False) -> tuple[bool, float]:

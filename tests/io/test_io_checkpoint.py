@@ -3,6 +3,7 @@ a CheckpointError naming the file (never a KeyError, a zip error or a wrong stat
 
 from __future__ import annotations
 
+import msgspec
 import numpy as np
 import pytest
 
@@ -14,6 +15,7 @@ from ipcsim.io.checkpoint import (
     write_checkpoint,
 )
 from ipcsim.simulation import State
+from ipcsim.solver.integrator import StepHistory
 
 DIGEST = "ab" * 32
 
@@ -31,8 +33,23 @@ def test_round_trip_is_exact(tmp_path):
     assert ck["step"] == 3 and ck["kappa"] == 12.5 and ck["inputs_sha256"] == DIGEST
     for key in ("x", "v", "a", "dx_elastic"):
         assert np.array_equal(ck[key], getattr(s, key))
+    assert ck["history"] is None and ck["time"] == 0.0 and ck["rejected"] == 0
     write_checkpoint(tmp_path, state(0, dx=False), DIGEST)
     assert read_checkpoint(tmp_path)["dx_elastic"] is None
+
+
+def test_round_trip_of_bdf2_and_adaptive_steps_is_exact(tmp_path):
+    """BDF2's step before, the time, the next step's length and the rejected count."""
+    rng = np.random.default_rng(2)
+    history = StepHistory(rng.standard_normal((5, 3)), rng.standard_normal((5, 3)), 0.0123)
+    s = msgspec.structs.replace(state(), history=history, time=0.1 + 0.2, h_next=0.00731,
+                                rejected=4)
+    write_checkpoint(tmp_path, s, DIGEST)
+    ck = read_checkpoint(tmp_path)
+    x_prev, v_prev, h_prev = ck["history"]
+    assert np.array_equal(x_prev, history.x) and np.array_equal(v_prev, history.v)
+    assert (h_prev, ck["time"], ck["h_next"], ck["rejected"]) == (0.0123, 0.1 + 0.2,
+                                                                  0.00731, 4)
 
 
 def rewrite(folder, **changes):
@@ -54,6 +71,9 @@ def rewrite(folder, **changes):
     ({"step": np.array([1, 2])}, "'step' is not a single integer"),
     ({"step": np.int64(-1)}, "step -1"),
     ({"kappa": np.float64(np.nan)}, "kappa nan"),
+    ({"time": np.float64(-1.0)}, "time -1.0"),
+    ({"h_prev": np.float64(0.01)}, "an incomplete step before"),
+    ({"rejected": np.float64(1.0)}, "'rejected' is not a single integer"),
     ({"x": np.float64(1.0)}, "'x' is not 5 finite"),
     ({"v": np.zeros((4, 3))}, "'v' is not 5 finite"),
     ({"a": np.full((5, 3), np.inf)}, "'a' is not 5 finite"),
@@ -92,4 +112,4 @@ def test_no_checkpoint_or_a_folder_in_its_place(tmp_path):
     (tmp_path / CHECKPOINT_NAME).mkdir()
     with pytest.raises(CheckpointError, match="is not a file"):
         read_checkpoint(tmp_path)
-    assert FORMAT_VERSION == 2
+    assert FORMAT_VERSION == 3

@@ -157,30 +157,56 @@ def test_any_double_round_trips(tmp_path_factory, values):
 
 def _totals_read_back(path):
     """run.json's totals as the file holds them (how they were taken before StepLog
-    kept them)."""
+    kept them): an empty ``accepted`` cell is an accepted step."""
     data = read_csv(path)
+    accepted = data["accepted"] != 0
     converged = data["converged"]
+    times = data["time"][accepted]
     return {"newton_iterations": int(np.nansum(data["newton_iterations"])),
             "hit_iteration_cap": int(np.nansum(data["hit_iteration_cap"])),
-            "not_converged": int(np.sum(converged == 0))}
+            "not_converged": int(np.sum(converged[accepted] == 0)),
+            "accepted": int(accepted.sum()), "rejected": int((~accepted).sum()),
+            "simulated_time": float(times[~np.isnan(times)][-1]) if
+            (~np.isnan(times)).any() else 0.0}
 
 
 def test_step_log_totals_are_those_of_its_rows_kept_and_appended(tmp_path):
     path = tmp_path / "steps.csv"
-    rows = [{"step": k, "newton_iterations": k + 2, "converged": k != 3,
+    rows = [{"step": k, "time": 0.1 * k, "newton_iterations": k + 2, "converged": k != 3,
              "hit_iteration_cap": int(k == 3)} for k in range(1, 6)]
     rows[1] = {"step": 2}  # cells left empty count for nothing
     with StepLog(path) as log:
         log.append(rows[0])
         log.append_rows(rows[1:])
     assert log.totals == _totals_read_back(path) == {
-        "newton_iterations": 3 + 5 + 6 + 7, "hit_iteration_cap": 1, "not_converged": 1}
+        "newton_iterations": 3 + 5 + 6 + 7, "hit_iteration_cap": 1, "not_converged": 1,
+        "accepted": 5, "rejected": 0, "simulated_time": 0.5}
 
     # a resumed run keeps steps 1..3 and appends a new step 4
     with StepLog(path, keep_rows=lambda cells: int(cells["step"]) <= 3) as log:
         assert log.totals == {"newton_iterations": 3 + 5, "hit_iteration_cap": 1,
-                              "not_converged": 1}
-        log.append({"step": 4, "newton_iterations": 10, "converged": np.bool_(False),
-                    "hit_iteration_cap": np.int64(1)})
+                              "not_converged": 1, "accepted": 3, "rejected": 0,
+                              "simulated_time": 0.1 * 3}
+        log.append({"step": 4, "time": 0.4, "newton_iterations": 10,
+                    "converged": np.bool_(False), "hit_iteration_cap": np.int64(1)})
     assert log.totals == _totals_read_back(path) == {
-        "newton_iterations": 18, "hit_iteration_cap": 2, "not_converged": 2}
+        "newton_iterations": 18, "hit_iteration_cap": 2, "not_converged": 2,
+        "accepted": 4, "rejected": 0, "simulated_time": 0.4}
+
+
+def test_step_log_totals_count_rejected_attempts_apart(tmp_path):
+    """Adaptive steps: a rejected attempt (accepted 0) counts as rejected, not as a step
+    that did not converge, and leaves the simulated time where it was."""
+    path = tmp_path / "steps.csv"
+    rows = [{"step": 1, "time": 0.01, "newton_iterations": 4, "converged": 1, "accepted": 1},
+            {"step": 2, "time": 0.02, "newton_iterations": 50, "converged": 0,
+             "hit_iteration_cap": 1, "accepted": 0},
+            {"step": 2, "time": 0.015, "newton_iterations": 3, "converged": 1,
+             "accepted": 0},
+            {"step": 2, "time": 0.015, "newton_iterations": 3, "converged": 1,
+             "accepted": 1}]
+    with StepLog(path) as log:
+        log.append_rows(rows)
+    assert log.totals == _totals_read_back(path) == {
+        "newton_iterations": 60, "hit_iteration_cap": 1, "not_converged": 0,
+        "accepted": 2, "rejected": 2, "simulated_time": 0.015}

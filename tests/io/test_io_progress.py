@@ -90,3 +90,18 @@ def test_a_compiling_run_says_so_once(capsys):
 
     assert twice(3) == 6 and twice(2.5) == 5.0
     assert said == [1] and compiling.compile_seconds() > 0.0
+
+
+def test_the_time_left_follows_the_simulated_time(monkeypatch):
+    """Adaptive steps: 10 of 100 steps done but 0.5 of 1 s simulated in 40 s leaves
+    40 s, not 360."""
+    import io
+
+    from ipcsim.io import progress as pr
+
+    clock = [100.0]
+    monkeypatch.setattr(pr.time, "perf_counter", lambda: clock[0])
+    p = pr.RunProgress(0, 100, "off", stream=io.StringIO(), first_time=0.0, end_time=1.0)
+    clock[0] += 40.0
+    p.update(10, 0.5, 3, 0)
+    assert p.eta(10) == pytest.approx(40.0)

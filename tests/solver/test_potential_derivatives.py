@@ -97,3 +97,34 @@ def test_incremental_potential_gradient_and_psd_hessian(sim):
     H = Triplets.concat(static + dynamic).tocsr(x.size).toarray()
     assert np.allclose(H, H.T)
     assert np.linalg.eigvalsh(H).min() > 0  # PSD local blocks + mass: positive definite
+
+
+def test_the_potential_of_a_shorter_bdf2_step_matches_finite_differences(sim):
+    """Weighted for a BDF2 step of 0.6 dt after one of dt (w = (βh)², the barrier by
+    w / dt², damping's scale βh·k/dt², its displacement from x̂): gradient and PSD
+    Hessian as the simulation assembles them."""
+    from ipcsim.potentials.terms import for_step
+    from ipcsim.solver.integrator import BDF2, StepHistory
+
+    s, x, ctx = sim
+    dt = s.model.dt
+    x_n = ctx.x_start
+    integrator = BDF2(0.6 * dt, StepHistory(x_n - 0.001, np.zeros_like(x_n), dt))
+    potential = for_step(s.potential, s.model, integrator, s.integrator.force_weight)
+    w = integrator.force_weight
+    weights = {t.term.name: t.weight for t in potential.terms}
+    assert weights["elasticity"] == weights["body force"] == w
+    assert weights["plane contact"] == w / dt ** 2
+    origin = integrator.lag_origin(x_n)
+    damping = potential.term("damping").lag(origin, potential.term("elasticity").hessian(x_n))
+    step_ctx = StepContext(x_start=x_n, slip_origin=origin, x_tilde=ctx.x_tilde,
+                           acceleration=ctx.acceleration, kinematic=ctx.kinematic,
+                           target=ctx.target, dhat=ctx.dhat, damping=damping)
+    kappa = s.state.kappa
+    data = potential.kernel.data(step_ctx)
+    g = potential.evaluate(x, step_ctx, data, 1).gradient(kappa)
+    fd = _fd_gradient(lambda y: potential.evaluate(y, step_ctx, data).energy(kappa), x, 1e-7)
+    np.testing.assert_allclose(g, fd, rtol=1e-5, atol=1e-6 * np.abs(fd).max())
+    static, dynamic = potential.hessian(x, step_ctx, data, kappa, dense=False)
+    H = Triplets.concat(static + dynamic).tocsr(x.size).toarray()
+    assert np.allclose(H, H.T) and np.linalg.eigvalsh(H).min() > 0
