@@ -27,7 +27,8 @@ from .contact.setup import ContactSetup
 from .contact.stiffness import BarrierStiffness, kappa_bounds
 from .errors import InfeasibleStartError, NonFiniteError, SolverError
 from .compiler.twin import use_threads
-from .model.kinematics import kinematic_targets, nbc_accelerations
+from .contact.intersection import crossing_edges_2d, inverted_triangles
+from .model.kinematics import kinematic_targets, nbc_accelerations, plane_origins
 from .model.surface import index_set
 from .potentials.base import StepContext, Triplets
 from .potentials.step_problem import StepProblem
@@ -199,7 +200,8 @@ class Simulation:
         if damping is not None:
             damping = damping.lag(x, self.potential.term("elasticity").hessian(x))
         ctx = StepContext(x_start=x, x_tilde=x_tilde, acceleration=accel, kinematic=kinematic,
-                          target=target, dhat=model.dhat, damping=damping)
+                          target=target, dhat=model.dhat, damping=damping,
+                          plane_origins=plane_origins(model, state.step + 1))
         stiffness = replace(self.stiffness, kappa=state.kappa).new_step()
         problem = StepProblem(self.potential, ctx, self.contact, stiffness, self.timer,
                               dense=self.one_call_hessian
@@ -267,7 +269,8 @@ class Simulation:
             "dhat": model.dhat, **final.contacts.as_row(),
             "energy": final.energy,
             "kinetic_energy": kinetic_energy(model.mass, st.v),
-            "elastic_energy": final.values.value_of("elasticity") or 0.0,
+            "elastic_energy": (final.values.value_of("elasticity") or 0.0)
+            + (final.values.value_of("springs") or 0.0),
             # empty cells in a scene without friction
             "friction_contacts": friction.count if friction is not None else None,
             "friction_iterations": lag_updates if friction is not None else None,
@@ -321,7 +324,8 @@ def _kept(result: NewtonResult):
 
 def _initial_stiffness(model, contact: ContactSetup) -> BarrierStiffness:
     n = model.n_vertices
-    tet_vertices = index_set(model.tets) if len(model.tets) else np.arange(n)
+    elements = model.tets if model.dimension == 3 else model.tri_elements
+    tet_vertices = index_set(elements) if len(elements) else np.arange(n)
     kappa_min, kappa_max = kappa_bounds(model.bbox_diagonal, model.dhat,
                                         float(model.mass[tet_vertices].mean()),
                                         model.kappa_min_multiplier)
@@ -344,10 +348,17 @@ def check_initial_state(sim: Simulation) -> None:
     """IPC starts from a feasible state: every surface vertex strictly above every plane,
     no inverted tet (neo-Hookean), and a positive distance between all surfaces."""
     x, contact = sim.state.x, sim.contact
-    if contact.planes is not None and not contact.planes.count(x, contact.dhat)[1] > 0.0:
+    planes = contact.planes
+    if planes is not None:
+        origins = plane_origins(sim.model, 0)
+        planes = planes if origins is None else planes.moved(origins)
+    if planes is not None and not planes.count(x, contact.dhat)[1] > 0.0:
         raise InfeasibleStartError(
             "initial state is infeasible: a surface vertex is on or below a plane "
             "(ground/halfSpace); move the shapes or the plane")
+    if sim.model.dimension == 2:
+        _check_initial_planar(sim.model, contact, x)
+        return
     elasticity = sim.potential.term("elasticity")
     if elasticity is not None and sim.model.energy == "NH":
         if not np.isfinite(elasticity.value(x)):
@@ -387,6 +398,35 @@ def _check_initial_mesh_contact(model, contact: ContactSetup, x) -> None:
             raise InfeasibleStartError(
                 f"initial state: {_shapes(model, *found[0])} {what}; IPC needs a positive "
                 "distance between all surfaces at the start")
+
+
+def _check_initial_planar(model, contact: ContactSetup, x) -> None:
+    """A 2D scene's start: no inverted or flat triangle, no two boundary edges that
+    cross or touch (of moving shapes), no point–edge pair at distance 0."""
+    bad = inverted_triangles(x, model.tri_elements)
+    if len(bad):
+        shape = _shape(model, int(model.tri_elements[bad[0], 0]))
+        raise InfeasibleStartError(f"initial state: {shape} has an inverted or flat "
+                                   "triangle")
+    mesh = contact.mesh
+    if mesh is None:
+        return
+    edges = mesh.edges
+    pairs = crossing_edges_2d(x, edges, None if mesh.self_collision else mesh.body)
+    if len(pairs):
+        kin = mesh.kinematic
+        pairs = pairs[~(kin[edges[pairs[:, 0]]].all(axis=1) & kin[edges[pairs[:, 1]]].all(axis=1))]
+    found = [(int(edges[a, 0]), int(edges[b, 0])) for a, b in pairs[:1]]
+    what = "cross or touch"
+    if not found:
+        collisions = build_collisions(mesh, x, contact.dhat)
+        touching = np.flatnonzero(collisions.distances.pt_d2 <= 0.0)[:1]
+        found = [(int(collisions.pt[i, 0]), int(collisions.pt[i, 1])) for i in touching]
+        what = "touch"
+    if found:
+        raise InfeasibleStartError(
+            f"initial state: the boundaries of {_shapes(model, *found[0])} {what}; IPC needs "
+            "a positive distance between all boundaries at the start")
 
 
 def _shape(model, v: int) -> str:

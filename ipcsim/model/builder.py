@@ -209,12 +209,12 @@ def build_model(scene: SceneSpec) -> Model:
     if not isinstance(scene, SceneSpec):
         raise ArgumentError("build_model takes a SceneSpec (ipcsim.load_scene(path)), got "
                             f"{type(scene).__name__}")
-    if scene.dimension == 2:
-        # the time step, and so every command and the API that simulate, is 3D: a 2D
-        # scene's Model (builder_2d.build_model_2d) would be run as if it were 3D
-        raise _scene_error(scene, scene.line_of("scene.dimension"),
-                           "2D scenes cannot be simulated yet ([scene] dimension = 2)")
     try:
+        if scene.dimension == 2:
+            from .builder_2d import build_model_2d  # it builds on this module's stages
+
+            refuse_what_is_not_simulated(scene)
+            return build_model_2d(scene)
         return _build_model(scene)
     except MeshError as exc:
         if exc.scene is None and scene.source is not None:

@@ -127,3 +127,20 @@ def nbc_accelerations(model: Model, t: float, x: np.ndarray | None = None) -> np
     if any_active:
         acc[model.kinematic_mask_at(t, x)] = 0.0
     return acc
+
+
+def plane_origins(model: Model, step: int) -> np.ndarray | None:
+    """(p, 3) where the planes are after ``step`` steps, None where none moves: a moving
+    plane's origin o advances by v h each step that starts with (limit − o)·v > 0 (the
+    lecture's ceiling), i.e. o_k = o_0 + min(k, K) v h with K the first k at which
+    (limit − o_k)·v ≤ 0 (no limit: K = ∞)."""
+    v = np.asarray(model.plane_velocities, dtype=np.float64)
+    if not len(v) or not np.any(v != 0.0):
+        return None
+    o0, h = np.asarray(model.plane_origins, dtype=np.float64), model.dt
+    speed_sq = np.einsum("ij,ij->i", v, v)
+    gap = np.einsum("ij,ij->i", np.asarray(model.plane_limits) - o0, v)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        moves = np.where(speed_sq > 0.0, np.ceil(gap / (h * speed_sq)), 0.0)
+    moves = np.where(np.isnan(moves), np.inf, np.maximum(moves, 0.0))  # no limit: always
+    return o0 + np.minimum(float(step), moves)[:, None] * h * v

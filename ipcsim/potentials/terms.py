@@ -7,6 +7,12 @@ bounded by CCD) unless the scene asks for the penalty baseline
 (``contact.formulation = "penalty"``), and absent with the SQP / QP baselines
 (``constraintSolver SQP|QP``, contact as constraints): that choice is made here and
 nowhere else.
+
+A 2D scene (``model.dimension == 2``) has triangles and springs for elasticity, the
+point–edge barrier for mesh contact and its lines for planes; with the lecture's barrier
+(``contact_barrier = "lecture"``) the barriers are weighted by the vertices' contact
+lengths and, as the lecture's incremental potential has them, barriers and friction
+are weighed by h² (w) like the other forces.
 """
 
 from __future__ import annotations
@@ -22,11 +28,15 @@ from .incremental import IncrementalPotential, WeightedTerm
 from .inertia import Inertia
 from .mesh_contact import MeshContact
 from .plane_contact import PlaneContact
+from .planar import LineContact, PointEdgeContact, Springs, TriangleElasticity
+from ..contact.setup import PlanarContact
 
 
 def incremental_potential(model, force_weight: float) -> IncrementalPotential:
     """The terms of ``model``'s incremental potential; ``force_weight`` w weighs
     elasticity and body forces (h² for backward Euler, βh² for Newmark)."""
+    if model.dimension == 2:
+        return _planar_potential(model, force_weight)
     terms = [WeightedTerm(Inertia(model.mass)), WeightedTerm(BodyForce(model.mass), force_weight)]
     elasticity = elastic_term(model)
     if elasticity is not None:
@@ -39,6 +49,44 @@ def incremental_potential(model, force_weight: float) -> IncrementalPotential:
         terms.append(WeightedTerm(Friction(
             model.epsv * model.dt, ramp_resolution=model.solver.friction_ramp_resolution,
             body=np.array(model.vertex_shape, dtype=np.int64))))  # writeable: one kernel variant
+    return IncrementalPotential(tuple(terms))
+
+
+def _friction(model) -> Friction:
+    # ε_v·h with the scene's own h
+    return Friction(model.epsv * model.dt, ramp_resolution=model.solver.friction_ramp_resolution,
+                    body=np.array(model.vertex_shape, dtype=np.int64))  # writeable
+
+
+def _planar_potential(model, force_weight: float) -> IncrementalPotential:
+    """A 2D scene's terms (module docstring): inertia, body forces, triangles, springs,
+    lines, point–edge contact, friction."""
+    terms = [WeightedTerm(Inertia(model.mass)), WeightedTerm(BodyForce(model.mass), force_weight)]
+    elastic = model.elastic_tri_elements
+    if np.any(elastic):
+        terms.append(WeightedTerm(TriangleElasticity(
+            model.tri_elements[elastic], model.tri_Dm_inv[elastic],
+            model.tri_rest_areas[elastic], model.tri_lame[elastic], model.energy),
+            force_weight))
+    springy = model.elastic_springs
+    if np.any(springy):
+        terms.append(WeightedTerm(Springs(model.springs[springy],
+                                          model.spring_rest_length_sq[springy],
+                                          model.spring_stiffness[springy]), force_weight))
+    barrier = PlanarContact.from_model(model)
+    lecture = barrier.line_weight is not None
+    barrier_weight = force_weight if lecture else 1.0
+    if model.needs_plane_contact:
+        planes = Planes.from_model(model)
+        term = (LineContact(planes, model.dhat, barrier.line_weight) if lecture
+                else PlaneContact(planes, model.dhat))
+        terms.append(WeightedTerm(term, barrier_weight, barrier=True))
+    if model.needs_mesh_contact:
+        terms.append(WeightedTerm(PointEdgeContact(model.dhat, barrier.form,
+                                                   barrier.point_weight),
+                                  barrier_weight, barrier=True))
+    if model.needs_friction:
+        terms.append(WeightedTerm(_friction(model), barrier_weight))
     return IncrementalPotential(tuple(terms))
 
 
