@@ -259,8 +259,14 @@ def _open_output(run: _Run):
     else:
         prepare_output_folder(out, run.mode == "overwrite")
         save_scene(run.scene, out / "scene.toml")
-    run.frames = FrameWriter(out, tets=model.tets, triangles=model.kinematic_surface_triangles,
-                             body_id=model.vertex_shape,
+    if model.dimension == 2:  # triangles (z = 0) and kinematic segments
+        bodies = np.array([k == "triangles" for k in model.shape_kinds], dtype=bool)
+        edges = model.surface_edges
+        cells = dict(triangles=model.tri_elements,
+                     segments=edges[~bodies[model.edge_shape]] if len(edges) else edges)
+    else:
+        cells = dict(tets=model.tets, triangles=model.kinematic_surface_triangles)
+    run.frames = FrameWriter(out, **cells, body_id=model.vertex_shape,
                              compression_level=frame_compression(model.n_vertices))
     run.frames.series_interval = SERIES_SECONDS
     if run.render:
