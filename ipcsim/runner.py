@@ -237,8 +237,14 @@ def _check_resume(run: _Run) -> int:
 
 def _write_frame(run: _Run, k: int) -> None:
     st = run.sim.state
-    run.frames.write(k, k * run.scene.dt, st.x, st.v,
-                     kinematic=run.model.always_kinematic.astype(np.int8))
+    model = run.model
+    fields = None if st.plane_origins is None else {"plane_origins": st.plane_origins}
+    extra = {}
+    if len(model.springs):  # a mass-spring body's triangles may invert (check --frames)
+        extra["mass_spring"] = np.isin(model.vertex_shape,
+                                       np.unique(model.spring_shape)).astype(np.int8)
+    run.frames.write(k, k * run.scene.dt, st.x, st.v, fields,
+                     kinematic=model.always_kinematic.astype(np.int8), **extra)
     if run.renderer is not None:
         run.renderer.render(k, k * run.scene.dt, st.x)
 

@@ -31,6 +31,7 @@ from .contact.intersection import crossing_edges_2d, inverted_triangles
 from .model.kinematics import kinematic_targets, nbc_accelerations, plane_origins
 from .model.surface import index_set
 from .potentials.base import StepContext, Triplets
+from .potentials.plane_contact import CCD_KEEP_FRACTION
 from .potentials.step_problem import StepProblem
 from .potentials.terms import incremental_potential
 from .solver.integrator import fix_kinematic_velocities, kinetic_energy, make_integrator
@@ -62,6 +63,7 @@ class State(Struct, frozen=True, eq=False):
     kappa: float = 0.0
     dx_elastic: np.ndarray | None = None
     time: float = 0.0  # s: step·h
+    plane_origins: np.ndarray | None = None  # (p, 3) a 2D scene's moving lines, else None
 
     @property
     def positions(self) -> np.ndarray:
@@ -141,9 +143,13 @@ class Simulation:
             raise ValueError(f"checkpoint has {len(checkpoint['x'])} vertices, the scene {n}")
         dx = checkpoint["dx_elastic"]
         self._collisions_at = None  # found afresh where the checkpoint starts
+        origins = checkpoint.get("plane_origins")
+        if origins is None and self.state.plane_origins is not None:
+            origins = plane_origins(self.model, checkpoint["step"])  # on their schedule
         self.state = State(checkpoint["x"].copy(), checkpoint["v"].copy(),
                            checkpoint["a"].copy(), checkpoint["step"], checkpoint["kappa"],
-                           None if dx is None else dx.copy(), checkpoint["step"] * self.h)
+                           None if dx is None else dx.copy(), checkpoint["step"] * self.h,
+                           None if origins is None else origins.copy())
 
     def _observe(self, row: dict) -> None:
         if self.on_iteration is not None:
@@ -201,7 +207,7 @@ class Simulation:
             damping = damping.lag(x, self.potential.term("elasticity").hessian(x))
         ctx = StepContext(x_start=x, x_tilde=x_tilde, acceleration=accel, kinematic=kinematic,
                           target=target, dhat=model.dhat, damping=damping,
-                          plane_origins=plane_origins(model, state.step + 1))
+                          plane_origins=self.moved_lines(state))
         stiffness = replace(self.stiffness, kappa=state.kappa).new_step()
         problem = StepProblem(self.potential, ctx, self.contact, stiffness, self.timer,
                               dense=self.one_call_hessian
@@ -211,6 +217,28 @@ class Simulation:
         if self.potential.term("friction") is not None:
             problem, start = problem.lag_friction(start)
         return problem, start
+
+    def moved_lines(self, state: State) -> np.ndarray | None:
+        """Where a 2D scene's moving lines are at the end of the step from ``state``
+        (None: no line moves). A line advances by v h while (limit − o)·v > 0 at the
+        step's start (the lecture's ceiling), but no further than leaves every vertex
+        it approaches 10 % of its gap at xₙ: the step starts feasible, and a line held
+        back by a body (a squashed stack) catches up at the steps that follow."""
+        o = state.plane_origins
+        if o is None:
+            return None
+        model, planes = self.model, self.contact.planes
+        v = model.plane_velocities
+        moving = np.einsum("ij,ij->i", model.plane_limits - o, v) > 0.0  # NaN limit: False
+        moving |= np.isnan(model.plane_limits).any(axis=1) & np.any(v != 0.0, axis=1)
+        move = np.where(moving[:, None], self.h * v, 0.0)
+        normals = planes.normals
+        gaps = np.einsum("pk,pvk->pv", normals, state.x[planes.vertices][None] - o[:, None])
+        closing = np.einsum("pk,pk->p", normals, move)  # how much nearer each vertex gets
+        with np.errstate(divide="ignore", invalid="ignore"):
+            room = np.where(closing > 0.0, (1.0 - CCD_KEEP_FRACTION) * gaps.min(axis=1,
+                            initial=np.inf) / closing, 1.0)
+        return o + np.clip(room, 0.0, 1.0)[:, None] * move
 
     def tolerance(self, step: int) -> float:
         """Newton's ‖p‖∞ tolerance of step ``step`` (tol·l·h); friction's static ramp has
@@ -255,7 +283,7 @@ class Simulation:
         dx_elastic = (x_new - (before.x + h * before.v + h * h * ctx.acceleration)
                       if self.model.solver.warm_start in (3, 4) else None)
         return State(x_new, v_new, a_new, before.step + 1, problem.stiffness.kappa,
-                     dx_elastic, (before.step + 1) * h)
+                     dx_elastic, (before.step + 1) * h, ctx.plane_origins)
 
     def _step_row(self, result: NewtonResult, lag_updates: int, wall0) -> dict:
         model, st, final = self.model, self.state, result.final
@@ -341,7 +369,9 @@ def _initial_state(model, kappa: float) -> State:
     a0 += model.gravity
     a0 += nbc_accelerations(model, 0.0)
     a0[model.kinematic_mask_at(0.0)] = 0.0
-    return State(model.initial_positions.copy(), model.initial_velocities.copy(), a0, 0, kappa)
+    origins = plane_origins(model, 0)  # a 2D scene's moving lines: part of the state
+    return State(model.initial_positions.copy(), model.initial_velocities.copy(), a0, 0, kappa,
+                 plane_origins=None if origins is None else origins.copy())
 
 
 def check_initial_state(sim: Simulation) -> None:

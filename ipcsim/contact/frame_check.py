@@ -157,8 +157,10 @@ class _FrameChecker:
 class _PlanarFrameChecker:
     """A 2D run's frames (z = 0): no two boundary edges (of the triangles, and the
     kinematic segments) that share a point, unless both are kinematic or, with self
-    collision off, of one body; no inverted or flat triangle; no simulated vertex on or
-    beyond a line, the moving lines where they are at the frame's time."""
+    collision off, of one body; no inverted or flat triangle (a mass-spring body's may
+    turn, as the lecture's do: they only draw it); no simulated vertex on or
+    beyond a line, the moving lines where the frame says the run had them (its field
+    data ``plane_origins``), else where their schedule puts them at the frame's time."""
 
     def __init__(self, mesh, scene):
         import numpy as np
@@ -182,6 +184,10 @@ class _PlanarFrameChecker:
         simulated[self.triangles.ravel()] = True
         self.plane_vertices = np.flatnonzero(simulated & ~kinematic)
         self.scene = scene
+        # triangles of mass-spring bodies only draw them: nothing keeps them from turning
+        springy = np.asarray(mesh.point_data.get("mass_spring", np.zeros(self.n))) != 0
+        springy = springy.reshape(self.n, -1)[:, 0]
+        self.elements = self.triangles[~springy[self.triangles].all(axis=1)]
 
     def _planes_at(self, time: float):
         import numpy as np
@@ -216,7 +222,7 @@ class _PlanarFrameChecker:
         between_obstacles = self.obstacle_vertex[ends].all(axis=(1, 2))
         counts["obstacle_contacts"] += int(between_obstacles.sum())
         n_pairs = int((~between_obstacles).sum())
-        inverted = len(inverted_triangles(x, self.triangles))
+        inverted = len(inverted_triangles(x, self.elements))
         counts["intersections"] += n_pairs
         counts["inverted_tets"] += inverted
         problems = []
@@ -225,6 +231,9 @@ class _PlanarFrameChecker:
                             "triangles")
         if self.scene.planes and len(self.plane_vertices):
             origins, normals = self._planes_at(time)
+            written = mesh.field_data.get("plane_origins")  # where the run had the lines
+            if written is not None:
+                origins = np.asarray(written, dtype=float).reshape(-1, 3)
             p = x[self.plane_vertices]
             beyond = int((p @ normals.T - np.einsum("pk,pk->p", origins, normals) <= 0.0)
                          .any(axis=1).sum())

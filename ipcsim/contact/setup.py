@@ -53,6 +53,14 @@ class PlanarContact(Struct, frozen=True, eq=False):
         if model.contact_barrier != "lecture":
             return PlanarContact(BARRIER_IPC, np.ones(model.n_vertices), None)
         length = np.array(model.node_contact_length, dtype=float)
+        # an inner node has no boundary edges: it gets its shape's mean boundary length,
+        # as the lecture gives every node of its square the same (its lines push all)
+        shape = np.asarray(model.vertex_shape)
+        on_boundary = length > 0.0
+        counts = np.bincount(shape[on_boundary], minlength=model.n_shapes)
+        mean = np.bincount(shape[on_boundary], weights=length[on_boundary],
+                           minlength=model.n_shapes) / np.maximum(counts, 1)
+        length = np.where(on_boundary, length, mean[shape])
         vertices = model.plane_contact_vertices
         return PlanarContact(BARRIER_LECTURE, length * dhat / 16.0,
                              length[vertices] * dhat / 2.0)

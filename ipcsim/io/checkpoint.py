@@ -48,7 +48,9 @@ def write_checkpoint(folder, state, inputs_sha256: str, *, fsync: bool = True) -
     buffer = io.BytesIO()
     np.savez(buffer, format_version=FORMAT_VERSION, inputs_sha256=np.str_(inputs_sha256),
              step=state.step, kappa=state.kappa, x=state.x, v=state.v, a=state.a,
-             dx_elastic=np.zeros((0, 3)) if dx is None else dx, num_vertices=n)
+             dx_elastic=np.zeros((0, 3)) if dx is None else dx, num_vertices=n,
+             plane_origins=np.zeros((0, 3)) if state.plane_origins is None
+             else state.plane_origins)
     return atomic_write_bytes(Path(folder) / CHECKPOINT_NAME, buffer.getvalue(), fsync=fsync)
 
 
@@ -112,4 +114,8 @@ def read_checkpoint(folder) -> dict:
     dx = _positions(ck, "dx_elastic", n, path, allow_empty=True)
     return {"step": int(step), "kappa": float(kappa), "x": x,
             "v": _positions(ck, "v", n, path), "a": _positions(ck, "a", n, path),
-            "dx_elastic": dx if len(dx) else None, "inputs_sha256": str(digest)}
+            "dx_elastic": dx if len(dx) else None, "inputs_sha256": str(digest),
+            # a 2D scene's moving lines (none in a checkpoint of an earlier version)
+            "plane_origins": (np.asarray(ck["plane_origins"], dtype=float).reshape(-1, 3)
+                              if "plane_origins" in ck and len(ck["plane_origins"])
+                              else None)}
