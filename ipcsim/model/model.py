@@ -422,7 +422,8 @@ class Model(Struct, frozen=True, eq=False):
         return {
             "shapes": kinds,
             "vertices": self.n_vertices,
-            "tets": self.n_tets,
+            **({"triangles": len(self.tri_elements), "springs": len(self.springs)}
+               if self.dimension == 2 else {"tets": self.n_tets}),
             "surface triangles": len(self.surface_triangles),
             "surface edges": len(self.surface_edges),
             "collision vertices": len(self.surface_vertices),
