@@ -33,7 +33,7 @@ def line_search_bound(mesh, x, p, dhat, previous_alpha=1.0) -> Bound:
     """The mesh's CCD bound of the direction p from x (no term bounds), and its pairs."""
     n = len(x)
     out = feasible_step(x, np.ascontiguousarray(p), np.zeros(kt.N_KINDS, dtype=np.bool_),
-                        NO_TERMS, mesh.kernel_arrays + (True,), (False, 0.0, 0.1),
+                        NO_TERMS, mesh.line_search_arrays, (False, 0.0, 0.1),
                         (np.zeros(n, dtype=np.bool_), np.zeros((n, 3)), 0.0),
                         (float(dhat), float(previous_alpha), True, DEFAULT_MIN_GAP_FRACTION,
                          DEFAULT_MAX_ITERATIONS))

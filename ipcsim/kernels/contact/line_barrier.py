@@ -18,7 +18,7 @@ import numpy as np
 from ipcsim.compiler.jit import njit
 
 from ipcsim.kernels.contact.barrier import lecture_barrier_and_derivatives
-from ipcsim.kernels.contact.friction import _basis_from_normal
+from ipcsim.kernels.contact.friction import basis_from_normal
 from ipcsim.kernels.contact.plane_barrier import (normal_gradient, normal_hessian_triplets,
                                                   plane_distances, signed_distance)
 
@@ -85,7 +85,7 @@ def lag_line_pairs(x_lag, vertices, origins, normals, dhat, weights, kappa):
             line[i] = k
             verts[i, 0] = vertices[j]
             coeffs[i, 0] = 1.0
-            _basis_from_normal(normals[k], basis[i])
+            basis_from_normal(normals[k], basis[i])
             lam[i] = -kappa * weights[j] * lecture_barrier_and_derivatives(d[k, j], dhat)[1]
             i += 1
     return line, verts, coeffs, basis, lam
