@@ -54,3 +54,16 @@ def test_check_refuses_an_intersecting_2d_start(tmp_path, capsys):
     assert main(["check", str(src)]) == 2
     err = capsys.readouterr().err.strip()
     assert "on or below a plane" in err and "\n" not in err
+
+
+def test_render_draws_a_2d_run_seen_from_z(tmp_path):
+    from ipcsim.io.render import is_planar, load_run_frames, _read_frame
+
+    src = tmp_path / "s.toml"
+    src.write_text(SCENE + "[time]\nduration = 0.02\ndt = 0.01\n")
+    out = tmp_path / "out"
+    assert main(["run", str(src), "-o", str(out), "-q"]) == 0
+    assert is_planar(_read_frame(load_run_frames(out).paths[0]))
+    assert main(["render", str(out), "--gif"]) == 0
+    assert len(list((out / "render").glob("frame_*.png"))) == 3
+    assert (out / "render" / "animation.gif").stat().st_size > 0
