@@ -67,3 +67,11 @@ def test_render_draws_a_2d_run_seen_from_z(tmp_path):
     assert main(["render", str(out), "--gif"]) == 0
     assert len(list((out / "render").glob("frame_*.png"))) == 3
     assert (out / "render" / "animation.gif").stat().st_size > 0
+
+
+def test_damping_is_refused_in_a_2d_scene_naming_the_key(tmp_path, capsys):
+    src = tmp_path / "s.toml"
+    src.write_text(SCENE + "[integrator]\ndamping_ratio = 0.1\n")
+    assert main(["check", str(src)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "damping_ratio" in err and "2D" in err and "\n" not in err

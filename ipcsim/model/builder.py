@@ -214,6 +214,11 @@ def build_model(scene: SceneSpec) -> Model:
             from .builder_2d import build_model_2d  # it builds on this module's stages
 
             refuse_what_is_not_simulated(scene)
+            for key in ("damping_ratio", "damping_stiff"):
+                if getattr(scene, key) > 0.0:  # the damping term is the tets' Hessian's
+                    raise _scene_error(scene, scene.line_of(f"integrator.{key}"),
+                                       f"`{key}`: Rayleigh damping is not simulated in 2D "
+                                       "scenes; leave it out")
             return build_model_2d(scene)
         return _build_model(scene)
     except MeshError as exc:
