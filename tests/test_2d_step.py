@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from ipcsim.contact.collisions import build_collisions
 from ipcsim.errors import InfeasibleStartError
 from ipcsim.kernels.contact import line_barrier as kl
 from ipcsim.kernels.terms import all_terms as kt
@@ -15,7 +16,6 @@ from ipcsim.model.builder import build_model
 from ipcsim.model.kinematics import moving_plane_origins
 from ipcsim.scene import load_scene
 from ipcsim.simulation import Simulation
-from ipcsim.contact.collisions import build_collisions
 
 DHAT = 0.01
 LECTURE = ('[contact]\nbarrier = "lecture"\nkappa = 1e5\ndhat_abs = 0.01\nepsv_abs = 1e-3\n'
@@ -53,8 +53,10 @@ def fd_gradient(f, x, h=1e-7):
     return g
 
 
-@pytest.mark.parametrize("contact", [LECTURE, '[contact]\nkappa = 1e5\ndhat_abs = 0.01\n'
-                                              "use_abs_parameters = true\n"])
+IPC = '[contact]\nkappa = 1e5\ndhat_abs = 0.01\nuse_abs_parameters = true\n'
+
+
+@pytest.mark.parametrize("contact", [LECTURE, IPC])
 def test_every_2d_kind_gradient_matches_finite_differences(tmp_path, contact):
     # two squares, one of triangles and one of springs, the second close under the first
     # and both close to the ground: every 2D kind is active
@@ -89,7 +91,7 @@ def test_lecture_line_barrier_hessian_matches_finite_differences():
     rows, cols, vals = kl.line_barrier_hessian(x, *args)
     H = np.zeros((9, 9))
     np.add.at(H, (rows, cols), vals)
-    fd = np.stack([fd_gradient(lambda y: kl.line_barrier_gradient(y, *args)[i], x, 1e-9)
+    fd = np.stack([fd_gradient(lambda y, i=i: kl.line_barrier_gradient(y, *args)[i], x, 1e-9)
                    for i in range(9)])
     np.testing.assert_allclose(H, fd, atol=1e-5 * np.abs(H).max())
     # the lecture's own formula: A d̂ κ/2 (d/d̂ − 1) ln(d/d̂) at unit κ, pairs within d̂

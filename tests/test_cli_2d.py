@@ -57,7 +57,7 @@ def test_check_refuses_an_intersecting_2d_start(tmp_path, capsys):
 
 
 def test_render_draws_a_2d_run_seen_from_z(tmp_path):
-    from ipcsim.io.render import is_planar, load_run_frames, _read_frame
+    from ipcsim.io.render import _read_frame, is_planar, load_run_frames
 
     src = tmp_path / "s.toml"
     src.write_text(SCENE + "[time]\nduration = 0.02\ndt = 0.01\n")

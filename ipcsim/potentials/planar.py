@@ -20,9 +20,9 @@ from __future__ import annotations
 from functools import partial
 from typing import ClassVar
 
+import numpy as np
 from msgspec import Struct
 from msgspec.structs import force_setattr
-import numpy as np
 
 from ..contact.planes import Planes
 from ..kernels.algebra.assembly import block_triplet_indices

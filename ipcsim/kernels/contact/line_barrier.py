@@ -15,12 +15,16 @@ friction's normal force λ = −κ w b_L'(d).
 from __future__ import annotations
 
 import numpy as np
-from ipcsim.compiler.jit import njit
 
+from ipcsim.compiler.jit import njit
 from ipcsim.kernels.contact.barrier import lecture_barrier_and_derivatives
 from ipcsim.kernels.contact.friction import basis_from_normal
-from ipcsim.kernels.contact.plane_barrier import (normal_gradient, normal_hessian_triplets,
-                                                  plane_distances, signed_distance)
+from ipcsim.kernels.contact.plane_barrier import (
+    normal_gradient,
+    normal_hessian_triplets,
+    plane_distances,
+    signed_distance,
+)
 
 
 @njit(cache=True)
