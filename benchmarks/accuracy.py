@@ -436,7 +436,7 @@ def fastest_within(runs: list[Measured], program: str, target: float) -> Measure
 
 def scene_size(scene: Scene, text: str, stage: Path) -> float:
     """l of the scene: ipcsim's rest bounding-box diagonal of its tet shapes."""
-    from ipcsim.model.builder import build_model
+    from ipcsim.model.build import build_model
     from ipcsim.scene import load_scene
 
     script = stage / "scripts" / f"acc_{scene.name}_size.txt"

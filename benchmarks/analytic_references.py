@@ -37,7 +37,7 @@ import scipy.linalg
 from scipy.optimize import brentq
 
 from ipcsim.kernels.contact.barrier import barrier_first_derivative
-from ipcsim.model.builder import build_model
+from ipcsim.model.build import build_model
 from ipcsim.model.generate import box_tet_mesh, write_msh
 from ipcsim.scene import load_scene
 from ipcsim.model.model import GRAVITY

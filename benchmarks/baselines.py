@@ -44,7 +44,7 @@ def baseline_scene(scene: Path, method: str, out: Path) -> Path:
     """``scene`` with contact by ``method`` (SQP or QP), written as TOML to ``out``. A
     scene that already names SQP or QP keeps its constraint settings; others get the
     settings of the original's SQP sections with offset d̂."""
-    from ipcsim.model.builder import build_model
+    from ipcsim.model.build import build_model
     from ipcsim.scene import load_scene, save_scene
 
     spec = load_scene(scene)

@@ -77,7 +77,7 @@ def steps_for(path: Path, default: int) -> int:
 def _read_scene(path: Path, row: Row):
     """The scene and its model's counts, or None (the row says why)."""
     from ipcsim.errors import IpcsimError
-    from ipcsim.model.builder import build_model
+    from ipcsim.model.build import build_model
     from ipcsim.scene import load_scene
 
     try:

@@ -21,7 +21,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from ipcsim.model.builder import build_model
+from ipcsim.model.build import build_model
 from ipcsim.model.generate import box_tet_mesh, write_msh
 from ipcsim.scene import load_scene
 from ipcsim.simulation import Simulation

@@ -19,7 +19,7 @@ from pathlib import Path
 import msgspec
 import numpy as np
 
-from ipcsim.model.builder import build_model
+from ipcsim.model.build import build_model
 from ipcsim.model.model import GRAVITY
 from ipcsim.scene import load_scene, save_scene
 

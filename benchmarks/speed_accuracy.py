@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ipcsim.model.builder import build_model
+from ipcsim.model.build import build_model
 from ipcsim.model.generate import box_tet_mesh, write_msh
 from ipcsim.scene import load_scene
 from ipcsim.simulation import Simulation

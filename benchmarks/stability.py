@@ -222,7 +222,7 @@ def analyse(out: Path, case: Case, n_planned: int) -> dict:
     from ipcsim.io.csv_log import read_csv
     from ipcsim.io.vtk import SERIES_NAME, read_series
     from ipcsim.kernels.contact.penalty import penetration_depths
-    from ipcsim.model.builder import build_model
+    from ipcsim.model.build import build_model
     from ipcsim.model.surface import boundary_triangles
     from ipcsim.scene import load_scene
 

@@ -4,7 +4,7 @@ phys-sim-book/solid-sim-tutorial, side by side.
     python -m benchmarks.vs_tutorial [--lessons 3_contact,4_friction,7_self_contact]
         [--steps N | --duration S] [--out DIR]
 
-The tutorial's half (this module, so far): each lesson runs headless from
+The tutorial's half: each lesson runs headless from
 ``../shared/solid-sim-tutorial/<lesson>/``, never copied into this repository and never
 imported by ipcsim. Its ``simulator.py`` sets the lesson up and then draws with pygame
 in a loop; the set-up part (everything before ``# simulation with visualization``, less
@@ -20,6 +20,14 @@ where the lesson computes them) and their total, and the wall time of the step.
 ``run_tutorial_lesson`` returns them as arrays (``TutorialRun``), for the comparison
 with ipcsim's run of the same set-up; ``main`` writes them as CSV rows,
 ``tutorial_<lesson>.csv`` in ``--out``.
+
+ipcsim's half: the lesson's scene, ``input/tutorial/<lesson>.toml`` (the same set-up
+with the tutorial's conventions), stepped by ``ipcsim.Simulation`` with the same
+quantities per step (``run_ipcsim_lesson``). ``compare`` gives the largest distance
+between the two centre-of-mass trajectories over the run as a fraction of the scene's
+size (the bodies' largest extent at the start) and the median wall time per step of
+each; ``main`` prints them, writes ``ipcsim_<lesson>.csv`` beside the tutorial's and
+draws ``vs_tutorial.png`` (centre-of-mass heights and wall time per step).
 
 When the tutorial's folder is absent, ``main`` says so and exits 0.
 """
@@ -199,6 +207,97 @@ def run_tutorial_lesson(lesson: str, steps: int | None = None, duration: float |
                        np.array(ns["x"], dtype=float), np.array(ns["v"], dtype=float))
 
 
+def run_ipcsim_lesson(lesson: str, steps: int | None = None,
+                      duration: float | None = None) -> TutorialRun:
+    """The lesson's scene run by ipcsim, as ``run_tutorial_lesson`` runs the tutorial:
+    the centre of mass and wall time per step (the energies: ipcsim's kinetic energy and
+    its terms' values, where the step reports them; NaN for the others)."""
+    import ipcsim
+
+    model = ipcsim.build_model(ipcsim.load_scene(REPO_ROOT / "input" / "tutorial"
+                                                 / f"{lesson}.toml"))
+    sim = ipcsim.Simulation(model)
+    h = model.dt
+    n = steps if steps is not None else (
+        int(round(duration / h)) if duration is not None else 100)
+    mass = np.asarray(model.mass)
+
+    def com(x):
+        return (mass[:, None] * x[:, :2]).sum(axis=0) / mass.sum()
+
+    coms, kinetic, elastic, wall = [com(sim.state.x)], [0.0], [0.0], np.empty(n)
+    for i in range(n):
+        t0 = time.perf_counter()
+        report = sim.step()
+        wall[i] = time.perf_counter() - t0
+        coms.append(com(sim.state.x))
+        kinetic.append(report.row["kinetic_energy"])
+        elastic.append(report.row["elastic_energy"])
+    nan = np.full(n + 1, np.nan)
+    return TutorialRun(lesson, h, np.array(coms), np.array(kinetic), nan, np.array(elastic),
+                       nan, wall, sim.state.x[:, :2].copy(), sim.state.v[:, :2].copy())
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """A lesson in both: the largest centre-of-mass distance over the run, as a fraction
+    of the scene's size, and the median wall time per step of each (s)."""
+
+    lesson: str
+    com_error: float
+    tutorial_step_s: float
+    ipcsim_step_s: float
+
+    @property
+    def speed_ratio(self) -> float:
+        """ipcsim's median step time over the tutorial's."""
+        return self.ipcsim_step_s / self.tutorial_step_s
+
+
+def scene_size(lesson: str) -> float:
+    """The bodies' largest extent at the start of the lesson's scene (m)."""
+    import ipcsim
+
+    model = ipcsim.build_model(ipcsim.load_scene(REPO_ROOT / "input" / "tutorial"
+                                                 / f"{lesson}.toml"))
+    x = model.initial_positions[:, :2]
+    return float((x.max(axis=0) - x.min(axis=0)).max())
+
+
+def compare(tutorial: TutorialRun, ours: TutorialRun) -> Comparison:
+    steps = min(tutorial.com.shape[0], ours.com.shape[0])
+    gap = np.linalg.norm(tutorial.com[:steps] - ours.com[:steps], axis=1).max()
+    return Comparison(tutorial.lesson, float(gap) / scene_size(tutorial.lesson),
+                      float(np.median(tutorial.wall_s)), float(np.median(ours.wall_s)))
+
+
+def chart(pairs: list[tuple[TutorialRun, TutorialRun]], path: Path) -> Path:
+    """Centre-of-mass heights of both runs, and their wall times per step, by lesson."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, len(pairs), figsize=(4.5 * len(pairs), 6), squeeze=False)
+    for j, (tut, ours) in enumerate(pairs):
+        top, bottom = axes[0, j], axes[1, j]
+        top.plot(tut.times, tut.com[:, 1], label="tutorial", lw=2.5, alpha=0.6)
+        top.plot(ours.times, ours.com[:, 1], label="ipcsim", lw=1.0)
+        top.set_title(tut.lesson)
+        top.set_xlabel("t (s)")
+        top.set_ylabel("centre of mass y (m)")
+        top.legend()
+        bottom.semilogy(tut.times[1:], tut.wall_s * 1e3, label="tutorial")
+        bottom.semilogy(ours.times[1:], ours.wall_s * 1e3, label="ipcsim")
+        bottom.set_xlabel("t (s)")
+        bottom.set_ylabel("wall time per step (ms)")
+        bottom.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
 def csv_rows(run: TutorialRun) -> list[dict]:
     """One row per state (step 0: the start, with no wall time)."""
     rows = []
@@ -214,9 +313,9 @@ def csv_rows(run: TutorialRun) -> list[dict]:
     return rows
 
 
-def write_csv(run: TutorialRun, out: Path) -> Path:
+def write_csv(run: TutorialRun, out: Path, side: str = "tutorial") -> Path:
     out.mkdir(parents=True, exist_ok=True)
-    path = out / f"tutorial_{run.lesson}.csv"
+    path = out / f"{side}_{run.lesson}.csv"
     with path.open("w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=COLUMNS)
         writer.writeheader()
@@ -243,12 +342,19 @@ def main(argv: list[str] | None = None) -> int:
         print(f"skipped: {TUTORIAL} is not there (the tutorial's code is never part of "
               "this repository)")
         return 0
+    pairs = []
     for lesson in lessons:
         run = run_tutorial_lesson(lesson, args.steps, args.duration)
-        path = write_csv(run, args.out)
-        print(f"{lesson}: {run.wall_s.size} steps of h = {run.h:g} s, "
-              f"{run.wall_s.mean() * 1e3:.1f} ms a step, final centre of mass "
-              f"({run.com[-1, 0]:.6f}, {run.com[-1, 1]:.6f}) -> {path}")
+        write_csv(run, args.out)
+        ours = run_ipcsim_lesson(lesson, args.steps, args.duration)
+        write_csv(ours, args.out, "ipcsim")
+        pairs.append((run, ours))
+        c = compare(run, ours)
+        print(f"{lesson}: {run.wall_s.size} steps of h = {run.h:g} s; centre of mass apart "
+              f"by at most {c.com_error:.2e} of the scene's size; median step "
+              f"{c.tutorial_step_s * 1e3:.2f} ms (tutorial), {c.ipcsim_step_s * 1e3:.2f} ms "
+              f"(ipcsim): {c.speed_ratio:.3f} of the tutorial's")
+    print(f"chart: {chart(pairs, args.out / 'vs_tutorial.png')}")
     return 0
 
 

@@ -24,7 +24,7 @@ _EXPORTS = {
     "load_scene": "ipcsim.scene",
     "save_scene": "ipcsim.scene",
     "SceneSpec": "ipcsim.scene.spec",
-    "build_model": "ipcsim.model.builder",
+    "build_model": "ipcsim.model.build",
     "Model": "ipcsim.model.model",
     "Simulation": "ipcsim.simulation",
     "State": "ipcsim.simulation",

@@ -134,7 +134,7 @@ def build(spec, warn=_to_stderr):
     """(model, simulation) of a scene; ``warn(message)`` receives the scene's and the
     builder's warnings. A named linear solver that is not installed here (PARDISO
     without MKL) is a SceneError at the scene's ``linearSolver`` line."""
-    from .model.builder import build_model
+    from .model.build import build_model
     from .simulation import Simulation
 
     for w in spec.warnings:
@@ -238,8 +238,14 @@ def _check_resume(run: _Run) -> int:
 
 def _write_frame(run: _Run, k: int) -> None:
     st = run.sim.state
-    run.frames.write(k, k * run.scene.dt, st.x, st.v,
-                     kinematic=run.model.always_kinematic.astype(np.int8))
+    model = run.model
+    fields = None if st.plane_origins is None else {"plane_origins": st.plane_origins}
+    extra = {}
+    if len(model.springs):  # a mass-spring body's triangles may invert (check --frames)
+        extra["mass_spring"] = np.isin(model.vertex_shape,
+                                       np.unique(model.spring_shape)).astype(np.int8)
+    run.frames.write(k, k * run.scene.dt, st.x, st.v, fields,
+                     kinematic=model.always_kinematic.astype(np.int8), **extra)
     if run.renderer is not None:
         run.renderer.render(k, k * run.scene.dt, st.x)
 
@@ -260,8 +266,14 @@ def _open_output(run: _Run):
     else:
         prepare_output_folder(out, run.mode == "overwrite")
         save_scene(run.scene, out / "scene.toml")
-    run.frames = FrameWriter(out, tets=model.tets, triangles=model.kinematic_surface_triangles,
-                             body_id=model.vertex_shape,
+    if model.dimension == 2:  # triangles (z = 0) and kinematic segments
+        bodies = np.array([k == "triangles" for k in model.shape_kinds], dtype=bool)
+        edges = model.surface_edges
+        cells = dict(triangles=model.tri_elements,
+                     segments=edges[~bodies[model.edge_shape]] if len(edges) else edges)
+    else:
+        cells = dict(tets=model.tets, triangles=model.kinematic_surface_triangles)
+    run.frames = FrameWriter(out, **cells, body_id=model.vertex_shape,
                              compression_level=frame_compression(model.n_vertices))
     run.frames.series_interval = SERIES_SECONDS
     if run.render:

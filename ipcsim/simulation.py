@@ -27,9 +27,11 @@ from .contact.setup import ContactSetup
 from .contact.stiffness import BarrierStiffness, kappa_bounds
 from .errors import InfeasibleStartError, NonFiniteError, SolverError
 from .compiler.twin import use_threads
-from .model.kinematics import kinematic_targets, nbc_accelerations
+from .contact.intersection import crossing_edges_2d, inverted_triangles
+from .model.kinematics import kinematic_targets, nbc_accelerations, plane_origins
 from .model.surface import index_set
 from .potentials.base import StepContext, Triplets
+from .potentials.plane_contact import CCD_KEEP_FRACTION
 from .potentials.step_problem import StepProblem
 from .potentials.terms import for_step, incremental_potential
 from .solver.energy_growth import EnergyGrowth
@@ -70,6 +72,7 @@ class State(Struct, frozen=True, eq=False):
     history: StepHistory | None = None  # BDF2: (xₙ₋₁, vₙ₋₁, hₙ₋₁) of the step before
     h_next: float = 0.0  # s, adaptive steps: the next step's length to try (0: dt)
     rejected: int = 0  # adaptive steps: attempts rejected so far (error or a stalled solve)
+    plane_origins: np.ndarray | None = None  # (p, 3) a 2D scene's moving lines, else None
 
     @property
     def positions(self) -> np.ndarray:
@@ -167,15 +170,20 @@ class Simulation:
         if history is not None:
             history = StepHistory(history[0].copy(), history[1].copy(), history[2])
         self._collisions_at = None  # found afresh where the checkpoint starts
+        origins = checkpoint.get("plane_origins")
+        if origins is None and self.state.plane_origins is not None:
+            origins = plane_origins(self.model, checkpoint["step"])  # on their schedule
         self.state = State(checkpoint["x"].copy(), checkpoint["v"].copy(),
                            checkpoint["a"].copy(), checkpoint["step"], checkpoint["kappa"],
                            None if dx is None else dx.copy(),
                            checkpoint.get("time", checkpoint["step"] * self.h), history,
-                           checkpoint.get("h_next", 0.0), checkpoint.get("rejected", 0))
+                           checkpoint.get("h_next", 0.0), checkpoint.get("rejected", 0),
+                           None if origins is None else origins.copy())
 
     def _elastic_energy(self, x) -> float:
-        elasticity = self.potential.term("elasticity")
-        return 0.0 if elasticity is None else elasticity.value(x)
+        """Ψ(x): the elements' and the springs' (as steps.csv's elastic_energy)."""
+        terms = (self.potential.term(name) for name in ("elasticity", "springs"))
+        return sum(t.value(x) for t in terms if t is not None)
 
     def _check_energy(self, row: dict) -> None:
         """Stop a run whose energy grew by orders of magnitude with no work done on it
@@ -348,7 +356,8 @@ class Simulation:
             damping = damping.lag(origin, potential.term("elasticity").hessian(x))
         ctx = StepContext(x_start=x, slip_origin=origin, x_tilde=x_tilde,
                           acceleration=accel, kinematic=kinematic, target=target,
-                          dhat=model.dhat, damping=damping)
+                          dhat=model.dhat, damping=damping,
+                          plane_origins=self.moved_lines(state, h))
         stiffness = replace(self.stiffness, kappa=state.kappa).new_step()
         problem = StepProblem(potential, ctx, self.contact, stiffness, self.timer,
                               dense=self.one_call_hessian
@@ -370,6 +379,28 @@ class Simulation:
             potential = self._potentials[key] = for_step(
                 self.potential, self.model, integrator, self.integrator.force_weight)
         return potential
+
+    def moved_lines(self, state: State, h: float) -> np.ndarray | None:
+        """Where a 2D scene's moving lines are at the end of the step from ``state``
+        (None: no line moves). A line advances by v h (h the step's) while (limit − o)·v > 0 at the
+        step's start (the lecture's ceiling), but no further than leaves every vertex
+        it approaches 10 % of its gap at xₙ: the step starts feasible, and a line held
+        back by a body (a squashed stack) catches up at the steps that follow."""
+        o = state.plane_origins
+        if o is None:
+            return None
+        model, planes = self.model, self.contact.planes
+        v = model.plane_velocities
+        moving = np.einsum("ij,ij->i", model.plane_limits - o, v) > 0.0  # NaN limit: False
+        moving |= np.isnan(model.plane_limits).any(axis=1) & np.any(v != 0.0, axis=1)
+        move = np.where(moving[:, None], h * v, 0.0)
+        normals = planes.normals
+        gaps = np.einsum("pk,pvk->pv", normals, state.x[planes.vertices][None] - o[:, None])
+        closing = np.einsum("pk,pk->p", normals, move)  # how much nearer each vertex gets
+        with np.errstate(divide="ignore", invalid="ignore"):
+            room = np.where(closing > 0.0, (1.0 - CCD_KEEP_FRACTION) * gaps.min(axis=1,
+                            initial=np.inf) / closing, 1.0)
+        return o + np.clip(room, 0.0, 1.0)[:, None] * move
 
     def tolerance(self, step: int, h: float | None = None) -> float:
         """Newton's ‖p‖∞ tolerance of step ``step`` (tol·l·h, h = dt; for a shorter step
@@ -427,7 +458,7 @@ class Simulation:
                       if self.model.solver.warm_start in (3, 4) else None)
         history = integrator.after(before.x, before.v) if integrator.uses_history else None
         return State(x_new, v_new, a_new, number, problem.stiffness.kappa, dx_elastic, t_end,
-                     history, before.h_next, before.rejected)
+                     history, before.h_next, before.rejected, ctx.plane_origins)
 
     def _step_row(self, result: NewtonResult, lag_updates: int, wall0, st: State,
                   h: float) -> dict:
@@ -442,7 +473,8 @@ class Simulation:
             "dhat": model.dhat, **final.contacts.as_row(),
             "energy": final.energy,
             "kinetic_energy": kinetic_energy(model.mass, st.v),
-            "elastic_energy": final.values.value_of("elasticity") or 0.0,
+            "elastic_energy": (final.values.value_of("elasticity") or 0.0)
+            + (final.values.value_of("springs") or 0.0),
             # empty cells in a scene without friction
             "friction_contacts": friction.count if friction is not None else None,
             "friction_iterations": lag_updates if friction is not None else None,
@@ -515,7 +547,8 @@ def _kept(result: NewtonResult):
 
 def _initial_stiffness(model, contact: ContactSetup) -> BarrierStiffness:
     n = model.n_vertices
-    tet_vertices = index_set(model.tets) if len(model.tets) else np.arange(n)
+    elements = model.tets if model.dimension == 3 else model.tri_elements
+    tet_vertices = index_set(elements) if len(elements) else np.arange(n)
     kappa_min, kappa_max = kappa_bounds(model.bbox_diagonal, model.dhat,
                                         float(model.mass[tet_vertices].mean()),
                                         model.kappa_min_multiplier)
@@ -531,17 +564,26 @@ def _initial_state(model, kappa: float) -> State:
     a0 += model.gravity
     a0 += nbc_accelerations(model, 0.0)
     a0[model.kinematic_mask_at(0.0)] = 0.0
-    return State(model.initial_positions.copy(), model.initial_velocities.copy(), a0, 0, kappa)
+    origins = plane_origins(model, 0)  # a 2D scene's moving lines: part of the state
+    return State(model.initial_positions.copy(), model.initial_velocities.copy(), a0, 0, kappa,
+                 plane_origins=None if origins is None else origins.copy())
 
 
 def check_initial_state(sim: Simulation) -> None:
     """IPC starts from a feasible state: every surface vertex strictly above every plane,
     no inverted tet (neo-Hookean), and a positive distance between all surfaces."""
     x, contact = sim.state.x, sim.contact
-    if contact.planes is not None and not contact.planes.count(x, contact.dhat)[1] > 0.0:
+    planes = contact.planes
+    if planes is not None:
+        origins = plane_origins(sim.model, 0)
+        planes = planes if origins is None else planes.moved(origins)
+    if planes is not None and not planes.count(x, contact.dhat)[1] > 0.0:
         raise InfeasibleStartError(
             "initial state is infeasible: a surface vertex is on or below a plane "
             "(ground/halfSpace); move the shapes or the plane")
+    if sim.model.dimension == 2:
+        _check_initial_planar(sim.model, contact, x)
+        return
     elasticity = sim.potential.term("elasticity")
     if elasticity is not None and sim.model.energy == "NH":
         if not np.isfinite(elasticity.value(x)):
@@ -581,6 +623,35 @@ def _check_initial_mesh_contact(model, contact: ContactSetup, x) -> None:
             raise InfeasibleStartError(
                 f"initial state: {_shapes(model, *found[0])} {what}; IPC needs a positive "
                 "distance between all surfaces at the start")
+
+
+def _check_initial_planar(model, contact: ContactSetup, x) -> None:
+    """A 2D scene's start: no inverted or flat triangle, no two boundary edges that
+    cross or touch (of moving shapes), no point–edge pair at distance 0."""
+    bad = inverted_triangles(x, model.tri_elements)
+    if len(bad):
+        shape = _shape(model, int(model.tri_elements[bad[0], 0]))
+        raise InfeasibleStartError(f"initial state: {shape} has an inverted or flat "
+                                   "triangle")
+    mesh = contact.mesh
+    if mesh is None:
+        return
+    edges = mesh.edges
+    pairs = crossing_edges_2d(x, edges, None if mesh.self_collision else mesh.body)
+    if len(pairs):
+        kin = mesh.kinematic
+        pairs = pairs[~(kin[edges[pairs[:, 0]]].all(axis=1) & kin[edges[pairs[:, 1]]].all(axis=1))]
+    found = [(int(edges[a, 0]), int(edges[b, 0])) for a, b in pairs[:1]]
+    what = "cross or touch"
+    if not found:
+        collisions = build_collisions(mesh, x, contact.dhat)
+        touching = np.flatnonzero(collisions.distances.pt_d2 <= 0.0)[:1]
+        found = [(int(collisions.pt[i, 0]), int(collisions.pt[i, 1])) for i in touching]
+        what = "touch"
+    if found:
+        raise InfeasibleStartError(
+            f"initial state: the boundaries of {_shapes(model, *found[0])} {what}; IPC needs "
+            "a positive distance between all boundaries at the start")
 
 
 def _shape(model, v: int) -> str:

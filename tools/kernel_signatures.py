@@ -30,6 +30,10 @@ EXAMPLES = ROOT.parent / "shared" / "ipc-examples" / "input"
 
 SCENES = [
     "input/two_cubes_fall.txt", "input/cube_drop.toml", "input/two_cubes_fall_frictionless.txt",
+    # 2D: the lecture's lessons (lines, springs, triangles, point-edge contact, friction)
+    "input/tutorial/2_dirichlet.toml@5", "input/tutorial/4_friction.toml@20",
+    "input/tutorial/5_mov_dirichlet.toml@40", "input/tutorial/7_self_contact.toml@40",
+    "input/tutorial/8_self_friction.toml@40",
     *(str(p) for p in sorted(EXAMPLES.glob("tutorialExamples/**/*.txt"))),
     f"{EXAMPLES}/paperExamples/10_cubeStack.txt",
     f"{EXAMPLES}/otherExamples/friction/slopeTest_highSchoolPhysics_0.49.txt@30",

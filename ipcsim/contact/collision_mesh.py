@@ -33,7 +33,8 @@ class CollisionMesh(Struct, frozen=True, eq=False, dict=True):
     vertices (v,) points that can collide; edges (e, 2); triangles (t, 3); body (n,) the
     body id of each vertex (a primitive's body is its first vertex's; pairs within one
     body are skipped unless ``self_collision``); kinematic (n,) bool; rest (n, 3) rest
-    positions (the edge–edge mollifier's ε_x) or None when unused."""
+    positions (the edge–edge mollifier's ε_x) or None when unused; ``planar``: a 2D
+    scene's mesh (no triangles), whose pairs are its points against its edges."""
 
     vertices: np.ndarray
     edges: np.ndarray
@@ -42,6 +43,7 @@ class CollisionMesh(Struct, frozen=True, eq=False, dict=True):
     kinematic: np.ndarray
     self_collision: bool = True
     rest: np.ndarray | None = None
+    planar: bool = False
 
     def __post_init__(self):
         # writable C-contiguous copies: numba compiles a second version of every kernel
@@ -79,8 +81,9 @@ class CollisionMesh(Struct, frozen=True, eq=False, dict=True):
 
     @cached_property
     def line_search_arrays(self) -> tuple:
-        """``kernel_arrays`` and True (there is mesh contact): the line search's mesh."""
-        return self.kernel_arrays + (True,)
+        """``kernel_arrays``, True (there is mesh contact) and whether the mesh is planar:
+        the line search's mesh."""
+        return self.kernel_arrays + (True, bool(self.planar))
 
     @staticmethod
     def of(n_vertices: int, vertices, edges, triangles, body=None, kinematic=None,
@@ -101,7 +104,8 @@ class CollisionMesh(Struct, frozen=True, eq=False, dict=True):
             body = np.where(obstacle[body], body + 1, 0)
         return CollisionMesh(model.surface_vertices, model.surface_edges,
                              model.surface_triangles, body, model.always_kinematic,
-                             bool(model.self_collision), model.rest_positions)
+                             bool(model.self_collision), model.rest_positions,
+                             planar=model.dimension == 2)
 
     @property
     def n_vertices(self) -> int:

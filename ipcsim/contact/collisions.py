@@ -8,6 +8,11 @@ that comes within d̂ anywhere on it), which is what a line search's energies ne
 
 The barrier sums over every candidate without merging duplicates, which equals the IPC
 Toolkit's merged, weighted set: pairs farther than d̂ contribute nothing.
+
+A planar mesh (a 2D scene) has one kind of pair, a point against an edge: its set holds
+them where point–triangle pairs are (``pt`` (k, 3) rows (p, e0, e1), ids
+point·n_edges + edge, their types and distances as ``pt_type``, ``pt_d2``) and no
+edge–edge pairs.
 """
 
 from __future__ import annotations
@@ -18,7 +23,9 @@ from functools import cached_property
 from msgspec import Struct
 import numpy as np
 
+from ..kernels.contact.broad_phase import point_edge_candidate_pairs
 from ..kernels.contact.pair_barrier import active_pairs, classify_and_distance, near_pairs
+from ..kernels.contact.point_edge_barrier import pe_classify_and_distance, pe_near_pairs
 from ..kernels.contact.mollifier import edge_edge_mollifier_thresholds
 from .candidates import find_candidates
 from .collision_mesh import CollisionMesh
@@ -110,8 +117,32 @@ def _mollifier_thresholds(mesh: CollisionMesh, ee) -> np.ndarray:
     return edge_edge_mollifier_thresholds(mesh.rest, ee) if len(ee) else np.zeros(0)
 
 
+_NO_EE = np.zeros((0, 4), dtype=np.int64)
+
+
+def _point_edge_pairs(mesh: CollisionMesh, x0, x1, inflation: float):
+    """(pairs (k, 3), ids) of a planar mesh whose boxes over x0 -> x1 grown by
+    inflation / 2 overlap."""
+    pe, index = point_edge_candidate_pairs(
+        np.ascontiguousarray(x0, dtype=float), np.ascontiguousarray(x1, dtype=float),
+        mesh.vertices.reshape(-1, 1), mesh.edges, mesh.tags[:2], float(inflation),
+        bool(mesh.self_collision))
+    return pe, index[:, 0] * len(mesh.edges) + index[:, 1]
+
+
+def _planar_set(pe, ids, distances) -> Collisions:
+    return Collisions(pe, _NO_EE, np.zeros(0), distances, ids, np.zeros(0, np.int64))
+
+
+def _planar_distances(types, d2) -> PairDistances:
+    return PairDistances(types, d2, np.zeros(0, np.int64), np.zeros(0))
+
+
 def build_collisions(mesh: CollisionMesh, x: np.ndarray, dhat: float) -> Collisions:
     """Every pair of ``mesh`` that may be closer than d̂ at x, with its distance at x."""
+    if mesh.planar:
+        pe, ids = _point_edge_pairs(mesh, x, x, dhat)
+        return _planar_set(pe, ids, _planar_distances(*pe_classify_and_distance(x, pe)))
     pt, ee, pt_index, ee_index = find_candidates(mesh, x, dhat, return_indices=True)
     distances = PairDistances(*classify_and_distance(x, pt, ee))
     return Collisions(pt, ee, _mollifier_thresholds(mesh, ee), distances,
@@ -126,6 +157,10 @@ def narrowed_collisions(swept: Collisions, x: np.ndarray, dhat: float) -> Collis
     the same box test keeps exactly those, without a new BVH query. Only the order of
     the pairs may differ from a fresh query's. The swept set has its pairs' ids, as
     every set this module builds."""
+    if swept.pt.shape[1] == 3:  # point–edge pairs
+        pe, _, ids, types, d2 = pe_near_pairs(x, swept.pt, np.zeros(len(swept.pt)),
+                                              swept.pt_id, dhat)
+        return _planar_set(pe, ids, _planar_distances(types, d2))
     pt, ee, eps_x, pt_id, ee_id, *distances = near_pairs(
         x, swept.pt, swept.ee, swept.ee_eps_x, swept.pt_id, swept.ee_id, dhat)
     return Collisions(pt, ee, eps_x, PairDistances(*distances), pt_id, ee_id)
@@ -134,6 +169,8 @@ def narrowed_collisions(swept: Collisions, x: np.ndarray, dhat: float) -> Collis
 def swept_collisions(mesh: CollisionMesh, x0: np.ndarray, x1: np.ndarray,
                      dhat: float) -> Collisions:
     """Every pair that may come within d̂ while the vertices move linearly x0 -> x1."""
+    if mesh.planar:
+        return _planar_set(*_point_edge_pairs(mesh, x0, x1, dhat), None)
     pt, ee, pt_index, ee_index = find_candidates(mesh, x0, dhat, x1=x1, return_indices=True)
     return Collisions(pt, ee, _mollifier_thresholds(mesh, ee), None,
                       *pair_ids(mesh, pt_index, ee_index))
@@ -141,4 +178,6 @@ def swept_collisions(mesh: CollisionMesh, x0: np.ndarray, x1: np.ndarray,
 
 def pair_distances(x: np.ndarray, collisions: Collisions) -> PairDistances:
     """Types and squared distances of a set's pairs at x."""
+    if collisions.pt.shape[1] == 3:
+        return _planar_distances(*pe_classify_and_distance(x, collisions.pt))
     return PairDistances(*classify_and_distance(x, collisions.pt, collisions.ee))

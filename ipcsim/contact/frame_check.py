@@ -29,6 +29,7 @@ def check_frames(folder: Path, out=None, totals: dict | None = None, scene=None)
     pvd = Path(folder) / "frames" / SERIES_NAME
     if not pvd.is_file():
         raise IpcsimError(f"{folder}: no frames to check ({pvd} not found)")
+    scene = run_scene(Path(folder), scene)
     planes, self_collision = _scene_of_run(Path(folder), scene)
     series = read_series(pvd)
     if not series:
@@ -42,8 +43,9 @@ def check_frames(folder: Path, out=None, totals: dict | None = None, scene=None)
     for time, vtu in series:
         mesh = read_frame(vtu)
         if checker is None:  # connectivity is the same in every frame of a run
-            checker = _FrameChecker(mesh, planes, self_collision)
-        problems = checker.check(mesh, vtu, counts)
+            checker = (_PlanarFrameChecker(mesh, scene) if scene.dimension == 2
+                       else _FrameChecker(mesh, planes, self_collision))
+        problems = checker.check(mesh, vtu, counts, time)
         if problems:
             bad += 1
             out.write(f"{vtu.name} (t={time:g} s): {'; '.join(problems)}\n")
@@ -98,7 +100,7 @@ class _FrameChecker:
         simulated[self.tets.ravel()] = True
         self.plane_vertices = np.flatnonzero(simulated & ~kinematic)
 
-    def check(self, mesh, vtu, counts: dict) -> list[str]:
+    def check(self, mesh, vtu, counts: dict, time: float = 0.0) -> list[str]:
         """The problems of one frame (empty when it is clean); ``counts`` accumulates."""
         import numpy as np
 
@@ -150,6 +152,95 @@ class _FrameChecker:
         inner, outer = (int(self.body[v]) for v in pairs[0])
         return [f"{len(pairs)} parts inside another's closed surface (first: a part of body "
                 f"{inner} inside body {outer})"]
+
+
+class _PlanarFrameChecker:
+    """A 2D run's frames (z = 0): no two boundary edges (of the triangles, and the
+    kinematic segments) that share a point, unless both are kinematic or, with self
+    collision off, of one body; no inverted or flat triangle (a mass-spring body's may
+    turn, as the lecture's do: they only draw it); no simulated vertex on or
+    beyond a line, the moving lines where the frame says the run had them (its field
+    data ``plane_origins``), else where their schedule puts them at the frame's time."""
+
+    def __init__(self, mesh, scene):
+        import numpy as np
+
+        from ..model.surface import boundary_edges
+
+        self.n = len(mesh.points)
+        cells = {c.type: np.asarray(c.data, dtype=np.int64) for c in mesh.cells}
+        self.triangles = cells.get("triangle", np.zeros((0, 3), np.int64)).reshape(-1, 3)
+        segments = cells.get("line", np.zeros((0, 2), np.int64)).reshape(-1, 2)
+        self.edges = np.concatenate([boundary_edges(self.triangles), segments])
+        body = np.asarray(mesh.point_data.get("body_id", np.zeros(self.n)), dtype=np.int64)
+        kinematic = np.asarray(mesh.point_data.get("kinematic", np.zeros(self.n))) != 0
+        self.body = body.reshape(self.n, -1)[:, 0]
+        kinematic = kinematic.reshape(self.n, -1)[:, 0]
+        ids, inverse = np.unique(self.body, return_inverse=True)
+        moving = np.bincount(inverse, weights=~kinematic, minlength=len(ids)) > 0
+        self.obstacle_vertex = ~moving[inverse]
+        self.self_collision = bool(scene.self_collision)
+        simulated = np.zeros(self.n, dtype=bool)
+        simulated[self.triangles.ravel()] = True
+        self.plane_vertices = np.flatnonzero(simulated & ~kinematic)
+        self.scene = scene
+        # triangles of mass-spring bodies only draw them: nothing keeps them from turning
+        springy = np.asarray(mesh.point_data.get("mass_spring", np.zeros(self.n))) != 0
+        springy = springy.reshape(self.n, -1)[:, 0]
+        self.elements = self.triangles[~springy[self.triangles].all(axis=1)]
+
+    def _planes_at(self, time: float):
+        import numpy as np
+
+        from ..model.kinematics import moving_plane_origins
+
+        planes = self.scene.planes
+        origins = np.array([p.origin for p in planes], dtype=float)
+        normals = np.array([p.normal for p in planes], dtype=float)
+        normals /= np.linalg.norm(normals, axis=1)[:, None]
+        limits = np.array([p.limit if p.limit is not None else (np.nan,) * 3 for p in planes],
+                          dtype=float)
+        velocities = np.array([p.velocity for p in planes], dtype=float)
+        dt = self.scene.dt
+        moved = moving_plane_origins(origins, velocities, limits, dt, int(round(time / dt)))
+        return (origins if moved is None else moved), normals
+
+    def check(self, mesh, vtu, counts: dict, time: float = 0.0) -> list[str]:
+        import numpy as np
+
+        from .intersection import crossing_edges_2d, inverted_triangles
+        from ..io.vtk import FrameError
+
+        x = np.asarray(mesh.points, dtype=np.float64)
+        if len(x) != self.n:
+            raise FrameError(f"{vtu}: {len(x)} vertices, the run's first frame has {self.n}")
+        bad = int((~np.isfinite(x).all(axis=1)).sum())
+        if bad:
+            return [f"{bad} vertices with non-finite coordinates"]
+        pairs = crossing_edges_2d(x, self.edges, None if self.self_collision else self.body)
+        ends = self.edges[pairs]  # (k, 2, 2)
+        between_obstacles = self.obstacle_vertex[ends].all(axis=(1, 2))
+        counts["obstacle_contacts"] += int(between_obstacles.sum())
+        n_pairs = int((~between_obstacles).sum())
+        inverted = len(inverted_triangles(x, self.elements))
+        counts["intersections"] += n_pairs
+        counts["inverted_tets"] += inverted
+        problems = []
+        if n_pairs or inverted:
+            problems.append(f"{n_pairs} crossing boundary-edge pairs; {inverted} inverted "
+                            "triangles")
+        if self.scene.planes and len(self.plane_vertices):
+            origins, normals = self._planes_at(time)
+            written = mesh.field_data.get("plane_origins")  # where the run had the lines
+            if written is not None:
+                origins = np.asarray(written, dtype=float).reshape(-1, 3)
+            p = x[self.plane_vertices]
+            beyond = int((p @ normals.T - np.einsum("pk,pk->p", origins, normals) <= 0.0)
+                         .any(axis=1).sum())
+            counts["below_plane"] += beyond
+            if beyond:
+                problems.append(f"{beyond} vertices on or beyond a line")
+        return problems
 
 
 def run_scene(folder: Path, scene=None):

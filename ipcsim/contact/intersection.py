@@ -129,6 +129,33 @@ def count_inverted_tets(x, tets) -> int:
     return int(np.count_nonzero(signs <= 0))
 
 
+def crossing_edges_2d(x, edges, body=None) -> np.ndarray:
+    """Pairs (i, j), i < j, of the edges (k, 2) of a 2D scene (z = 0) that share a point
+    (exact), among edges that share no vertex; with ``body`` (one id per vertex) only
+    pairs of two bodies count."""
+    x = _positions(x)
+    edges = _connectivity(edges, 2, x.shape[0], "edges")
+    pairs = _k.edge_edge_candidates_2d(x, edges)
+    if body is not None and len(pairs):
+        body = np.asarray(body)
+        pairs = pairs[body[edges[pairs[:, 0], 0]] != body[edges[pairs[:, 1], 0]]]
+    pairs = pairs[_k.crossing_edge_pairs_2d(x, edges, pairs)] if len(pairs) else pairs
+    order = np.lexsort((pairs[:, 1], pairs[:, 0]))
+    return pairs[order]
+
+
+def inverted_triangles(x, triangles) -> np.ndarray:
+    """Indices of the triangles of a 2D scene whose exact orientation is <= 0 (inverted
+    or flat)."""
+    x = _positions(x)
+    triangles = _connectivity(triangles, 3, x.shape[0], "triangles")
+    signs = np.empty(len(triangles), dtype=np.int8)
+    areas = np.empty(len(triangles))
+    if len(triangles):
+        _k.triangle_orientations(x, triangles, signs, areas)
+    return np.flatnonzero(signs <= 0)
+
+
 class FrameCheck(Struct, frozen=True, eq=False):
     """What ``check_frame`` found in one frame (``ok`` when nothing is wrong)."""
 

@@ -36,6 +36,18 @@ class Planes(Struct, frozen=True, eq=False):
         return Planes(model.plane_contact_vertices, model.plane_origins, model.plane_normals,
                       model.plane_friction)
 
+    def at(self, ctx) -> "Planes":
+        """The planes in the step context ``ctx``: with its ``plane_origins`` where the
+        planes move (a 2D scene's moving lines), else these."""
+        origins = None if ctx is None else ctx.plane_origins
+        if origins is None:
+            return self
+        return Planes(self.vertices, origins, self.normals, self.friction)
+
+    def moved(self, origins: np.ndarray) -> "Planes":
+        """The same planes through ``origins`` (p, 3)."""
+        return Planes(self.vertices, origins, self.normals, self.friction)
+
     def count(self, x: np.ndarray, dhat: float) -> tuple[int, float]:
         """(pairs with d² < d̂², the smallest signed distance) at x."""
         return plane_active_count_and_min_distance(x, self.vertices, self.origins,

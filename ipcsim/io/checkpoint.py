@@ -52,12 +52,13 @@ def write_checkpoint(folder, state, inputs_sha256: str, *, fsync: bool = True) -
     none = np.zeros((0, 3))
     np.savez(buffer, format_version=FORMAT_VERSION, inputs_sha256=np.str_(inputs_sha256),
              step=state.step, kappa=state.kappa, x=state.x, v=state.v, a=state.a,
-             dx_elastic=none if dx is None else dx, num_vertices=n,
-             time=float(state.time), h_next=float(state.h_next),
-             rejected=int(state.rejected),
-             x_prev=none if history is None else history.x,
-             v_prev=none if history is None else history.v,
-             h_prev=0.0 if history is None else float(history.h))
+              dx_elastic=none if dx is None else dx, num_vertices=n,
+              time=float(state.time), h_next=float(state.h_next),
+              rejected=int(state.rejected),
+              x_prev=none if history is None else history.x,
+              v_prev=none if history is None else history.v,
+              h_prev=0.0 if history is None else float(history.h),
+              plane_origins=none if state.plane_origins is None else state.plane_origins)
     return atomic_write_bytes(Path(folder) / CHECKPOINT_NAME, buffer.getvalue(), fsync=fsync)
 
 
@@ -132,4 +133,8 @@ def read_checkpoint(folder) -> dict:
             "v": _positions(ck, "v", n, path), "a": _positions(ck, "a", n, path),
             "dx_elastic": dx if len(dx) else None, "inputs_sha256": str(digest),
             "time": float(t), "h_next": float(h_next), "rejected": int(rejected),
-            "history": (x_prev, v_prev, float(h_prev)) if len(x_prev) else None}
+            "history": (x_prev, v_prev, float(h_prev)) if len(x_prev) else None,
+            # a 2D scene's moving lines (none in a checkpoint of an earlier version)
+            "plane_origins": (np.asarray(ck["plane_origins"], dtype=float).reshape(-1, 3)
+                              if "plane_origins" in ck and len(ck["plane_origins"])
+                              else None)}

@@ -154,6 +154,21 @@ def _plane_tile(pv, plane, center, extent):
                     j_resolution=1)
 
 
+def _line_segment(pv, plane, center, extent):
+    """A 2D run's line: a segment of it through the point nearest the run's centre."""
+    n = np.asarray(plane.normal, dtype=float)
+    n = n / np.linalg.norm(n)
+    c = center - np.dot(center - np.asarray(plane.origin, dtype=float), n) * n
+    along = 1.5 * extent * np.array([-n[1], n[0], 0.0])
+    return pv.Line(c - along, c + along)
+
+
+def is_planar(mesh) -> bool:
+    """A 2D run's frame: triangles and segments at z = 0, no tets."""
+    points = np.asarray(mesh.points)
+    return not len(_cells(mesh, "tetra")) and bool(np.all(points[:, 2] == 0.0))
+
+
 def _camera(center, radius, azimuth, elevation, zoom, aspect, view_angle=30.0):
     """Camera position and up vector looking at ``center`` so that a sphere of
     ``radius`` fits the view (both directions), then zoomed."""
@@ -262,6 +277,10 @@ class FrameRenderer:
     def __init__(self, first, planes, lo, hi, opt: RenderOptions, vmax: float | None = None):
         w, h = _validate(opt)
         n = len(first.points)
+        planar = is_planar(first)
+        if planar:  # a 2D run: seen from +z, x to the right, y up
+            opt = RenderOptions(**{**{f: getattr(opt, f) for f in opt.__struct_fields__},
+                                   "azimuth": 0.0, "elevation": 0.0})
         body = np.asarray(first.point_data.get("body_id", np.zeros(n)), dtype=np.int64).ravel()
         kin = np.asarray(first.point_data.get("kinematic", np.zeros(n)), dtype=np.int64).ravel()
         # a body is an obstacle when every vertex of it is prescribed
@@ -307,7 +326,8 @@ class FrameRenderer:
             rgb[obstacle_vertex] = OBSTACLE_RGB
             self.body_mesh.point_data["rgb"] = rgb
             plotter.add_mesh(self.body_mesh, scalars="rgb", rgb=True, smooth_shading=False,
-                             line_width=3, point_size=8, render_points_as_spheres=True)
+                             line_width=3, point_size=8, render_points_as_spheres=True,
+                             show_edges=planar, edge_color="white")
         else:
             self.body_mesh.point_data["|v| m/s"] = np.zeros(n)
             plotter.add_mesh(self.body_mesh, scalars="|v| m/s", cmap="viridis",
@@ -321,6 +341,11 @@ class FrameRenderer:
         if self.obst_mesh is not None:
             plotter.add_mesh(self.obst_mesh, color=np.array(OBSTACLE_RGB) / 255)
         for pl in planes:
+            if planar:  # a moving line is not drawn: it is elsewhere in every frame
+                if not np.any(np.asarray(pl.velocity, dtype=float) != 0.0):
+                    plotter.add_mesh(_line_segment(pv, pl, center, extent),
+                                     color=np.array(PLANE_RGB) / 255 * 0.6, line_width=4)
+                continue
             plotter.add_mesh(_plane_tile(pv, pl, center, extent),
                              color=np.array(PLANE_RGB) / 255, opacity=0.6)
 

@@ -243,11 +243,13 @@ class FrameWriter:
         """``(index, time, path)`` of every frame written so far, by index."""
         return [(i, t, self.frames_dir / f) for i, (t, f, _) in sorted(self._series.items())]
 
-    def write(self, index: int, time: float, positions, velocity, **point_data) -> Path:
+    def write(self, index: int, time: float, positions, velocity, fields=None,
+              **point_data) -> Path:
         """Write frame ``index`` at simulated ``time`` [s] and update the series.
 
         ``positions`` and ``velocity`` are (n, 3); each keyword argument is one more
-        point-data array of shape (n,) or (n, k) (booleans are stored as 0/1 UInt8).
+        point-data array of shape (n,) or (n, k) (booleans are stored as 0/1 UInt8);
+        ``fields`` more field data, name to float array (a 2D scene's moving lines).
         Writing an index again replaces that frame. Returns the ``.vtu`` path.
         """
         index = int(index)
@@ -276,6 +278,8 @@ class FrameWriter:
             # TimeValue lets ParaView show the time even when one .vtu is opened alone
             "<FieldData>\n",
             _data_array("TimeValue", np.array([time]), level, tuples=True),
+            *(_data_array(name, np.asarray(a, dtype=np.float64).reshape(-1), level,
+                          tuples=True) for name, a in (fields or {}).items()),
             "</FieldData>\n",
             f'<Piece NumberOfPoints="{n}" NumberOfCells="{self.num_cells}">\n',
             "<PointData>\n",

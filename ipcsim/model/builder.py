@@ -211,25 +211,7 @@ def _load_obstacle(scene: SceneSpec, k: int, ob) -> _Part:
 # ----------------------------------------------------------------------------- build
 
 
-def build_model(scene: SceneSpec) -> Model:
-    """Load every mesh of the scene and assemble the frozen Model (§5)."""
-    if not isinstance(scene, SceneSpec):
-        raise ArgumentError("build_model takes a SceneSpec (ipcsim.load_scene(path)), got "
-                            f"{type(scene).__name__}")
-    if scene.dimension == 2:
-        # the time step, and so every command and the API that simulate, is 3D: a 2D
-        # scene's Model (builder_2d.build_model_2d) would be run as if it were 3D
-        raise _scene_error(scene, scene.line_of("scene.dimension"),
-                           "2D scenes cannot be simulated yet ([scene] dimension = 2)")
-    try:
-        return _build_model(scene)
-    except MeshError as exc:
-        if exc.scene is None and scene.source is not None:
-            exc.scene = str(scene.source)
-        raise
-
-
-def _build_model(scene: SceneSpec) -> Model:
+def build_model_3d(scene: SceneSpec) -> Model:
     """The stages of §5.1, each a function of what the ones before produced."""
     _check_global_settings(scene)
     refuse_what_is_not_simulated(scene)

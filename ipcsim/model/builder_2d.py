@@ -53,6 +53,7 @@ from .builder import (
     _tet_bbox_diagonal,
     lame_parameters,
     place,
+    refuse_what_is_not_simulated,
 )
 from .generate import rectangle_mesh, rectangle_springs
 from .model import Model, TimeSettings
@@ -204,6 +205,12 @@ def _collision_mesh_2d(parts, offsets, rest) -> dict:
 
 def build_model_2d(scene: SceneSpec) -> Model:
     """The frozen Model of a 2D scene (module docstring)."""
+    refuse_what_is_not_simulated(scene)
+    for key in ("damping_ratio", "damping_stiff"):
+        if getattr(scene, key) > 0.0:  # the damping term is the tets' Hessian's
+            raise _scene_error(scene, scene.line_of(f"integrator.{key}"),
+                               f"`{key}`: Rayleigh damping is not simulated in 2D "
+                               "scenes; leave it out")
     warnings: list[str] = []
     parts = [_load_shape_2d(scene, i, s, warnings) for i, s in enumerate(scene.shapes)]
     offsets = np.concatenate([[0], np.cumsum([len(p.points) for p in parts])]).astype(np.int64)

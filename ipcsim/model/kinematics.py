@@ -127,3 +127,27 @@ def nbc_accelerations(model: Model, t: float, x: np.ndarray | None = None) -> np
     if any_active:
         acc[model.kinematic_mask_at(t, x)] = 0.0
     return acc
+
+
+def plane_origins(model: Model, step: int) -> np.ndarray | None:
+    """(p, 3) where the model's planes are after ``step`` steps, None where none moves
+    (``moving_plane_origins``)."""
+    return moving_plane_origins(model.plane_origins, model.plane_velocities,
+                                model.plane_limits, model.dt, step)
+
+
+def moving_plane_origins(origins, velocities, limits, h: float, step: int):
+    """(p, 3) where planes are after ``step`` steps of h, None where none moves: a moving
+    plane's origin o advances by v h each step that starts with (limit − o)·v > 0 (the
+    lecture's ceiling), i.e. o_k = o_0 + min(k, K) v h with K the first k at which
+    (limit − o_k)·v ≤ 0 (a NaN limit: none, K = ∞)."""
+    v = np.asarray(velocities, dtype=np.float64).reshape(-1, 3)
+    if not len(v) or not np.any(v != 0.0):
+        return None
+    o0 = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
+    speed_sq = np.einsum("ij,ij->i", v, v)
+    gap = np.einsum("ij,ij->i", np.asarray(limits, dtype=np.float64).reshape(-1, 3) - o0, v)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        moves = np.where(speed_sq > 0.0, np.ceil(gap / (h * speed_sq)), 0.0)
+    moves = np.where(np.isnan(moves), np.inf, np.maximum(moves, 0.0))
+    return o0 + np.minimum(float(step), moves)[:, None] * h * v

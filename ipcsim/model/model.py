@@ -383,8 +383,16 @@ class Model(Struct, frozen=True, eq=False):
     def plane_contact_vertices(self) -> np.ndarray:
         """Collision vertices that take part in point-plane contact: every surface vertex
         that is not kinematic for the whole run (codim, velocity and meshSeq shapes and
-        obstacles move as prescribed; halfspaces never push them)."""
-        return self.surface_vertices[~self.always_kinematic[self.surface_vertices]]
+        obstacles move as prescribed; halfspaces never push them). In 2D every vertex of a
+        body, as the lecture has it: a mass-spring body may fold an inner node out."""
+        vertices = self.surface_vertices
+        if self.dimension == 2:
+            body = np.zeros(self.n_vertices, dtype=bool)
+            body[self.tri_elements.ravel()] = True
+            body[self.springs.ravel()] = True
+            body[vertices] = True
+            vertices = np.flatnonzero(body)
+        return vertices[~self.always_kinematic[vertices]]
 
     @property
     def kinematic_surface_triangles(self) -> np.ndarray:
@@ -414,7 +422,8 @@ class Model(Struct, frozen=True, eq=False):
         return {
             "shapes": kinds,
             "vertices": self.n_vertices,
-            "tets": self.n_tets,
+            **({"triangles": len(self.tri_elements), "springs": len(self.springs)}
+               if self.dimension == 2 else {"tets": self.n_tets}),
             "surface triangles": len(self.surface_triangles),
             "surface edges": len(self.surface_edges),
             "collision vertices": len(self.surface_vertices),

@@ -309,6 +309,7 @@ class StepContext(Struct, frozen=True, eq=False):
     collisions: "Collisions | None" = None  # mesh pairs near x (None: no mesh contact)
     friction: "FrictionLag | None" = None  # normal forces and bases lagged at x_lag
     damping: LaggedDamping | None = None
+    plane_origins: np.ndarray | None = None  # (p, 3) where the planes are (moving lines)
 
 
 class Potential(Protocol):

@@ -42,6 +42,11 @@ _ABSENT = (
     (_NO_VERTICES, _NO_VECTOR, _NO_POINTS, 0.0, _NO_POINTS, False),  # PULL
     (_NO_VERTICES, _NO_POINTS, _NO_POINTS, 0.0, 0.0),  # PLANE_PENALTY
     (0.0, 0.0),  # MESH_PENALTY
+    (np.zeros((0, 3), dtype=np.int64), np.zeros((0, 2, 2)), _NO_VECTOR, np.zeros((0, 2)), 0,
+     True),  # TRIANGLES
+    (np.zeros((0, 2), dtype=np.int64), _NO_VECTOR, _NO_VECTOR, True),  # SPRINGS
+    (0.0, 0, _NO_VECTOR),  # POINT_EDGE
+    (_NO_VERTICES, _NO_POINTS, _NO_POINTS, 0.0, _NO_VECTOR),  # LINE_LECTURE
 )
 assert len(_ABSENT) == kt.N_KINDS
 NO_TERMS = _ABSENT  # the data of a potential without terms (bounds of the mesh alone)
@@ -54,6 +59,16 @@ def _fixed(kind: int, term) -> tuple:
         return writeable(term.mass), _NO_POINTS
     if kind == kt.ELASTICITY:
         return term.tets, term.Dm_inv, term.volumes, term.lame, int(term.model), True
+    if kind == kt.TRIANGLES:
+        return term.triangles, term.Dm_inv, term.areas, term.lame, int(term.model), True
+    if kind == kt.SPRINGS:
+        return term.springs, term.rest_length_sq, term.stiffness, True
+    if kind == kt.POINT_EDGE:
+        return float(term.s_hat), int(term.form), term.point_weight
+    if kind == kt.LINE_LECTURE:
+        planes = term.planes
+        return (writeable(planes.vertices, np.int64), writeable(planes.origins),
+                writeable(planes.normals), float(term.dhat), term.vertex_weight)
     if kind in (kt.PLANE_CONTACT, kt.PLANE_PENALTY):
         planes = term.planes
         arrays = (writeable(planes.vertices, np.int64), writeable(planes.origins),
@@ -103,8 +118,12 @@ class TermData(Struct, frozen=True, eq=False):
                     np.array([t.weight for t in weighted_terms], dtype=float),
                     np.array([t.barrier for t in weighted_terms], dtype=np.bool_))
         elasticity = terms[kt.ELASTICITY]
+        if elasticity is None:  # a 2D scene's triangles
+            elasticity = terms[kt.TRIANGLES]
         nh = elasticity is not None and elasticity.energy == "NH"
-        bounds = (nh, elasticity.min_volume_ratio if nh else 0.0, CCD_KEEP_FRACTION)
+        ratio = getattr(elasticity, "min_volume_ratio", getattr(elasticity, "min_area_ratio",
+                                                                0.0))
+        bounds = (nh, ratio if nh else 0.0, CCD_KEEP_FRACTION)
         return TermData(kinds, present, tuple(terms), fixed, weighing, bounds)
 
     def data(self, ctx: StepContext) -> tuple:
@@ -119,6 +138,12 @@ class TermData(Struct, frozen=True, eq=False):
             lag = ctx.damping
             D = lag.triplets
             data[kt.DAMPING] = (lag.x_start, D.vals, float(D.scale), D.elements)
+        if ctx.plane_origins is not None:  # a 2D scene's moving lines
+            origins = writeable(ctx.plane_origins)
+            for kind in (kt.PLANE_CONTACT, kt.LINE_LECTURE):
+                if present[kind]:
+                    t = data[kind]
+                    data[kind] = (t[0], origins, *t[2:])
         if present[kt.FRICTION]:
             lag, term = ctx.friction, self.terms[kt.FRICTION]
             if lag is not None and lag.count:

@@ -30,17 +30,18 @@ class PlaneContact(Struct, frozen=True, eq=False):
     def s_hat(self) -> float:
         return self.dhat * self.dhat
 
-    def _args(self):
-        return self.planes.vertices, self.planes.origins, self.planes.normals
+    def _args(self, ctx=None):
+        planes = self.planes.at(ctx)  # where a 2D scene's lines move
+        return planes.vertices, planes.origins, planes.normals
 
     def value(self, x, ctx: StepContext | None = None):
-        return k.plane_barrier_value(x, *self._args(), self.s_hat, 1.0)
+        return k.plane_barrier_value(x, *self._args(ctx), self.s_hat, 1.0)
 
     def gradient(self, x, ctx: StepContext | None = None):
-        return k.plane_barrier_gradient(x, *self._args(), self.s_hat, 1.0)
+        return k.plane_barrier_gradient(x, *self._args(ctx), self.s_hat, 1.0)
 
     def hessian(self, x, ctx: StepContext | None = None):
-        return Triplets(*k.plane_barrier_hessian(x, *self._args(), self.s_hat, 1.0))
+        return Triplets(*k.plane_barrier_hessian(x, *self._args(ctx), self.s_hat, 1.0))
 
     def max_step(self, x, p, ctx: StepContext | None = None):
-        return k.plane_ccd_max_step(x, p, *self._args(), CCD_KEEP_FRACTION)
+        return k.plane_ccd_max_step(x, p, *self._args(ctx), CCD_KEEP_FRACTION)

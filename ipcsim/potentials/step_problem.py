@@ -199,7 +199,7 @@ class StepProblem(Struct, frozen=True, eq=False, dict=True):
     def contacts(self, point: Point) -> ContactCount:
         """The contacts at a point whose collision set is found (``at``)."""
         with self.timer("contact_set"):
-            return self.contact.count(point.x, point.collisions)
+            return self.contact.count(point.x, point.collisions, self.ctx)
 
     def energy_known(self, point: Point) -> float | None:
         """E at the point where its line search gave it at the κ in force, else None."""
@@ -341,10 +341,12 @@ class StepProblem(Struct, frozen=True, eq=False, dict=True):
         step's slip origin (xₙ; x̂ for BDF2)."""
         point = self.at(point)
         origin = self.ctx.x_start if self.ctx.slip_origin is None else self.ctx.slip_origin
-        lag = lag_friction(point.x, origin, point.collisions, self.contact.planes,
+        planes = self.contact.planes
+        lag = lag_friction(point.x, origin, point.collisions,
+                           planes.at(self.ctx) if planes is not None else None,
                            self.contact.self_friction,
                            self.stiffness.kappa * self.base.barrier_weight,
-                           self.contact.dhat)
+                           self.contact.dhat, self.contact.planar)
         ctx = replace(self.ctx, friction=lag)
         return replace(self, ctx=ctx, data=self.potential.kernel.data(ctx)), \
             replace(point, known=None)
@@ -352,4 +354,4 @@ class StepProblem(Struct, frozen=True, eq=False, dict=True):
 
 _NO_MESH = (np.zeros((0, 1), dtype=np.int64), np.zeros((0, 2), dtype=np.int64),
             np.zeros((0, 3), dtype=np.int64), (np.zeros((0, 2), dtype=np.int64),) * 3, False,
-            np.zeros((0, 3)), False)
+            np.zeros((0, 3)), False, False)

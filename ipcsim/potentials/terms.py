@@ -12,6 +12,12 @@ bounded by CCD) unless the scene asks for the penalty baseline
 (``contact.formulation = "penalty"``), and absent with the SQP / QP baselines
 (``constraintSolver SQP|QP``, contact as constraints): that choice is made here and
 nowhere else.
+
+A 2D scene (``model.dimension == 2``) has triangles and springs for elasticity, the
+point–edge barrier for mesh contact and its lines for planes; with the lecture's barrier
+(``contact_barrier = "lecture"``) the barriers are weighted by the vertices' contact
+lengths and, as the lecture's incremental potential has them, barriers and friction
+are weighed by h² (w) like the other forces.
 """
 
 from __future__ import annotations
@@ -29,15 +35,19 @@ from .incremental import IncrementalPotential, WeightedTerm
 from .inertia import Inertia
 from .mesh_contact import MeshContact
 from .plane_contact import PlaneContact
+from .planar import LineContact, PointEdgeContact, Springs, TriangleElasticity
+from ..contact.setup import PlanarContact
 
 
 # the terms weighted by w, the integrator's force weight
-FORCE_WEIGHTED = ("body force", "elasticity")
+FORCE_WEIGHTED = ("body force", "elasticity", "springs")
 
 
 def incremental_potential(model, integrator) -> IncrementalPotential:
     """The terms of ``model``'s incremental potential for a step of ``integrator``."""
     w = integrator.force_weight
+    if model.dimension == 2:
+        return _planar_potential(model, integrator)
     terms = [WeightedTerm(Inertia(model.mass)), WeightedTerm(BodyForce(model.mass), w)]
     elasticity = elastic_term(model)
     if elasticity is not None:
@@ -46,10 +56,7 @@ def incremental_potential(model, integrator) -> IncrementalPotential:
             terms.append(WeightedTerm(damping_term(model, integrator)))
     terms.extend(contact_terms(model))
     if model.needs_friction:  # only where some μ > 0
-        terms.append(WeightedTerm(Friction(
-            friction_threshold(model, integrator),
-            ramp_resolution=model.solver.friction_ramp_resolution,
-            body=np.array(model.vertex_shape, dtype=np.int64))))  # writeable: one kernel variant
+        terms.append(WeightedTerm(_friction(model, integrator)))
     return IncrementalPotential(tuple(terms))
 
 
@@ -64,8 +71,8 @@ def for_step(potential: IncrementalPotential, model, integrator,
     terms = []
     for t in potential.terms:
         name = t.term.name
-        if t.barrier:
-            t = replace(t, weight=w / scene_weight)
+        if t.barrier:  # (the lecture's 2D barriers carry the scene's w besides)
+            t = replace(t, weight=t.weight * w / scene_weight)
         elif name in FORCE_WEIGHTED:
             t = replace(t, weight=w)
         elif name == "damping":
@@ -85,6 +92,45 @@ def friction_threshold(model, integrator) -> float:
 def damping_term(model, integrator) -> Damping:
     """Rayleigh damping whose coefficient is the scene's at every step length."""
     return Damping(damping_scale(integrator, model.damping_stiffness, model.dt))
+
+
+def _friction(model, integrator) -> Friction:
+    return Friction(friction_threshold(model, integrator),
+                    ramp_resolution=model.solver.friction_ramp_resolution,
+                    body=np.array(model.vertex_shape, dtype=np.int64))  # writeable: one variant
+
+
+def _planar_potential(model, integrator) -> IncrementalPotential:
+    """A 2D scene's terms (module docstring): inertia, body forces, triangles, springs,
+    lines, point–edge contact, friction."""
+    force_weight = integrator.force_weight
+    terms = [WeightedTerm(Inertia(model.mass)), WeightedTerm(BodyForce(model.mass), force_weight)]
+    elastic = model.elastic_tri_elements
+    if np.any(elastic):
+        terms.append(WeightedTerm(TriangleElasticity(
+            model.tri_elements[elastic], model.tri_Dm_inv[elastic],
+            model.tri_rest_areas[elastic], model.tri_lame[elastic], model.energy),
+            force_weight))
+    springy = model.elastic_springs
+    if np.any(springy):
+        terms.append(WeightedTerm(Springs(model.springs[springy],
+                                          model.spring_rest_length_sq[springy],
+                                          model.spring_stiffness[springy]), force_weight))
+    barrier = PlanarContact.from_model(model)
+    lecture = barrier.line_weight is not None
+    barrier_weight = force_weight if lecture else 1.0
+    if model.needs_plane_contact:
+        planes = Planes.from_model(model)
+        term = (LineContact(planes, model.dhat, barrier.line_weight) if lecture
+                else PlaneContact(planes, model.dhat))
+        terms.append(WeightedTerm(term, barrier_weight, barrier=True))
+    if model.needs_mesh_contact:
+        terms.append(WeightedTerm(PointEdgeContact(model.dhat, barrier.form,
+                                                   barrier.point_weight),
+                                  barrier_weight, barrier=True))
+    if model.needs_friction:  # its normal forces carry the barriers' weight (lag_friction)
+        terms.append(WeightedTerm(_friction(model, integrator)))
+    return IncrementalPotential(tuple(terms))
 
 
 def elastic_term(model) -> Elasticity | None:

@@ -15,7 +15,7 @@ from ipcsim.baselines.qp import QPResult
 from ipcsim.cli import main
 from ipcsim.contact.collision_mesh import CollisionMesh
 from ipcsim.errors import SolverError
-from ipcsim.model.builder import build_model
+from ipcsim.model.build import build_model
 from ipcsim.scene import load_scene
 from ipcsim.simulation import Simulation
 

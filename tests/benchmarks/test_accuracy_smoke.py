@@ -12,7 +12,7 @@ import pytest
 
 from benchmarks import accuracy as acc
 from benchmarks import vs_original as vo
-from ipcsim.model.builder import build_model
+from ipcsim.model.build import build_model
 from ipcsim.runner import frame_interval_for
 from ipcsim.scene import load_scene
 from ipcsim.scene.spec import SceneSpec

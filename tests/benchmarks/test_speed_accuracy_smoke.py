@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from ipcsim.model.builder import build_model
+from ipcsim.model.build import build_model
 from ipcsim.scene import load_scene
 
 from benchmarks.speed_accuracy import (

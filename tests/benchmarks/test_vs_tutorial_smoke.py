@@ -72,3 +72,23 @@ def test_without_the_tutorial_the_benchmark_says_so_and_exits_0(monkeypatch, tmp
     assert not (tmp_path / "out").exists()
     with pytest.raises(vt.TutorialMissing, match="no simulator.py"):
         vt.lesson_folder("3_contact", tmp_path / "absent")
+
+
+def test_ipcsim_follows_the_tutorial_on_lesson_3_and_draws_the_chart(tmp_path):
+    _needs_tutorial()
+    tutorial = vt.run_tutorial_lesson("3_contact", steps=60)  # the fall and the landing
+    ours = vt.run_ipcsim_lesson("3_contact", steps=60)
+    assert ours.com.shape == tutorial.com.shape and np.all(ours.wall_s > 0.0)
+    c = vt.compare(tutorial, ours)
+    assert c.com_error < 1e-3 and c.ipcsim_step_s < c.tutorial_step_s
+    path = vt.chart([(tutorial, ours)], tmp_path / "chart.png")
+    assert path.stat().st_size > 0
+
+
+def test_ipcsim_side_runs_without_the_tutorial():
+    ours = vt.run_ipcsim_lesson("7_self_contact", steps=5)
+    # the two squares fall freely at first: the centre of mass drops as y_k − y_0 =
+    # −g h² k(k+1)/2 under backward Euler
+    drop = ours.com[:, 1] - ours.com[0, 1]
+    np.testing.assert_allclose(drop, -9.81 * 1e-4 * np.array([0, 1, 3, 6, 10, 15]),
+                               rtol=1e-9, atol=1e-12)

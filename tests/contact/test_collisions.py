@@ -16,7 +16,7 @@ from ipcsim.contact.collisions import (Collisions, build_collisions, narrowed_co
 from ipcsim.contact.intersection import find_intersections
 from ipcsim.kernels.terms import all_terms as kt
 from ipcsim.kernels.terms.line_search import feasible_step, snap_reach
-from ipcsim.model.builder import build_model
+from ipcsim.model.build import build_model
 from ipcsim.model.generate import box_tet_mesh, write_msh
 from ipcsim.potentials.kernel_data import NO_TERMS
 from ipcsim.scene import load_scene
@@ -33,7 +33,7 @@ def line_search_bound(mesh, x, p, dhat, previous_alpha=1.0) -> Bound:
     """The mesh's CCD bound of the direction p from x (no term bounds), and its pairs."""
     n = len(x)
     out = feasible_step(x, np.ascontiguousarray(p), np.zeros(kt.N_KINDS, dtype=np.bool_),
-                        NO_TERMS, mesh.kernel_arrays + (True,), (False, 0.0, 0.1),
+                        NO_TERMS, mesh.line_search_arrays, (False, 0.0, 0.1),
                         (np.zeros(n, dtype=np.bool_), np.zeros((n, 3)), 0.0),
                         (float(dhat), float(previous_alpha), True, DEFAULT_MIN_GAP_FRACTION,
                          DEFAULT_MAX_ITERATIONS))

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from ipcsim.errors import MeshError, SceneError
-from ipcsim.model.builder import build_model, place, voronoi_triangle_masses
+from ipcsim.model.build import build_model
+from ipcsim.model.builder import place, voronoi_triangle_masses
 from ipcsim.model.generate import box_tet_mesh
 from ipcsim.model.kinematics import rotation_xyz
 from ipcsim.model.model import Model

@@ -11,7 +11,7 @@ import pytest
 
 from ipcsim.errors import MeshError, SceneError
 from ipcsim.model import mesh_io
-from ipcsim.model.builder import build_model
+from ipcsim.model.build import build_model
 from ipcsim.model.builder_2d import build_model_2d
 from ipcsim.model.generate import rectangle_mesh, write_msh
 from ipcsim.scene import load_scene
@@ -157,11 +157,11 @@ def test_a_tet_mesh_is_not_a_2d_body(tmp_path):
         mesh_io.read_triangle_mesh(tmp_path / "cube.msh")
 
 
-def test_build_model_refuses_a_2d_scene_until_the_time_step_simulates_it(tmp_path):
+def test_build_model_builds_a_2d_scene(tmp_path):
     path = tmp_path / "s.toml"
     path.write_text(square())
-    with pytest.raises(SceneError, match=r"s\.toml:2: 2D scenes cannot be simulated yet"):
-        build_model(load_scene(path))
+    model = build_model(load_scene(path))
+    assert model.dimension == 2 and len(model.tri_elements) == 32
 
 
 # ----------------------------------------------------------------------------- the lecture

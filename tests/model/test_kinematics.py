@@ -9,7 +9,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from ipcsim.errors import MeshError
-from ipcsim.model.builder import build_model
+from ipcsim.model.build import build_model
 from ipcsim.model.kinematics import (kinematic_targets, nbc_accelerations,
                                      rotation_axis_angle, rotation_xyz)
 from ipcsim.scene.spec import DirichletSpec, NeumannSpec, SceneSpec, ShapeSpec

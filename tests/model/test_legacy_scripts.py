@@ -10,7 +10,7 @@ import pytest
 
 from scipy.spatial.transform import Rotation
 
-from ipcsim.model.builder import build_model
+from ipcsim.model.build import build_model
 from ipcsim.model.kinematics import kinematic_targets, nbc_accelerations
 from ipcsim.scene.spec import DirichletSpec, PlaneSpec, SceneSpec, ShapeSpec
 

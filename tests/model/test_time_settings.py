@@ -9,7 +9,8 @@ import sys
 import pytest
 
 from ipcsim.errors import SceneError
-from ipcsim.model.builder import build_model, time_settings
+from ipcsim.model.build import build_model
+from ipcsim.model.builder import time_settings
 from ipcsim.scene import load_scene
 
 SCENE = "shapes input 1\ncube1.msh 0 0 0  0 0 0  1 1 1\ntime 0.5 0.025\nturnOffGravity\n"

@@ -12,7 +12,7 @@ from generated import write_box_msh
 
 from ipcsim.contact.intersection import find_intersections
 from ipcsim.kernels.algebra.linalg import tet_signed_volumes
-from ipcsim.model.builder import build_model
+from ipcsim.model.build import build_model
 from ipcsim.potentials.boundary_pull import MAX_RHO, START_RHO, BoundaryPull, PullSchedule
 from ipcsim.scene import load_scene
 from ipcsim.potentials.step_problem import Point, StepProblem

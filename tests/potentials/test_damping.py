@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ipcsim.model.builder import build_model
+from ipcsim.model.build import build_model
 from ipcsim.model.generate import box_tet_mesh, write_msh
 from ipcsim.potentials.base import StepContext
 from ipcsim.scene import load_scene

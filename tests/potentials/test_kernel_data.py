@@ -12,7 +12,7 @@ import pytest
 
 from ipcsim.contact.collisions import build_collisions, swept_collisions
 from ipcsim.kernels.terms import all_terms as kt
-from ipcsim.model.builder import build_model
+from ipcsim.model.build import build_model
 from ipcsim.potentials.base import Triplets
 from ipcsim.potentials.boundary_pull import BoundaryPull
 from ipcsim.potentials.incremental import IncrementalPotential, WeightedTerm

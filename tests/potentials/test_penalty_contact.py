@@ -10,7 +10,7 @@ from ipcsim.contact.collision_mesh import CollisionMesh
 from ipcsim.contact.collisions import build_collisions
 from ipcsim.contact.planes import Planes
 from ipcsim.kernels.contact import penalty as kp
-from ipcsim.model.builder import build_model
+from ipcsim.model.build import build_model
 from ipcsim.model.generate import box_tet_mesh, write_msh
 from ipcsim.potentials.base import StepContext, Triplets
 from ipcsim.potentials.penalty_contact import PenaltyMeshContact, PenaltyPlaneContact

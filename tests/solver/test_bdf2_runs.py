@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from ipcsim.errors import SolverError
-from ipcsim.model.builder import build_model
+from ipcsim.model.build import build_model
 from ipcsim.scene import load_scene
 from ipcsim.simulation import Simulation
 from ipcsim.solver.energy_growth import GROWTH_LIMIT, EnergyGrowth

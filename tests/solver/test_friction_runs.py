@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from generated import write_box_msh
 
-from ipcsim.model.builder import build_model
+from ipcsim.model.build import build_model
 from ipcsim.scene import load_scene
 from ipcsim.simulation import Simulation
 

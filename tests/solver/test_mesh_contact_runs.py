@@ -9,7 +9,7 @@ from iterates import watch_iterates
 
 from ipcsim.cli import main
 from ipcsim.contact.intersection import find_intersections
-from ipcsim.model.builder import build_model
+from ipcsim.model.build import build_model
 from ipcsim.scene import load_scene
 from ipcsim.simulation import Simulation
 

@@ -6,7 +6,7 @@ import pytest
 from generated import write_box_msh
 from iterates import watch_iterates
 
-from ipcsim.model.builder import build_model
+from ipcsim.model.build import build_model
 from ipcsim.scene import load_scene
 from ipcsim.simulation import Simulation
 

@@ -12,7 +12,7 @@ Only |P_kᵀ r| enters D, so the in-plane orientation of P_k is arbitrary (as in
 
 2D scenes (point–edge pairs at z = 0, ``lag_point_edge_pairs``) use the same formulas:
 their closest feature is a point–point or point–line one, whose normal lies in the
-plane, so one column of P is exactly e_z (``_basis_from_normal`` takes the axis least
+plane, so one column of P is exactly e_z (``basis_from_normal`` takes the axis least
 aligned with n, z, and n̂ × (n̂ × e_z) has no x, y parts). Nothing moves along z (u_z = 0),
 so |Pᵀr| is the slip along the 1D tangent of the plane (ipctk's 2D basis), the gradient
 has no z parts, and the Hessian couples no z DOF with an in-plane one (its z-z entries,
@@ -96,7 +96,7 @@ def f1_prime(y, eps):
 # =========================================================================================
 
 @njit(cache=True, error_model="numpy")
-def _basis_from_normal(n, P):
+def basis_from_normal(n, P):
     """Orthonormal P (3 x 2) spanning n⊥: t1 = n̂ × e_a / |·| with e_a the axis least
     aligned with n, t2 = n̂ × t1."""
     L = np.sqrt(squared_norm3(n))
@@ -173,7 +173,7 @@ def _lag_feature(x, pair, f, verts, coeffs, P):
         for k in range(4):
             verts[k] = g[k]
         coeffs[0], coeffs[1], coeffs[2], coeffs[3] = 1.0 - s, s, -(1.0 - t), -t
-    _basis_from_normal(n, P)
+    basis_from_normal(n, P)
 
 
 @kernel(parallel=True, error_model="numpy")
@@ -273,7 +273,7 @@ def lag_plane_pairs(x_lag, vertices, origins, normals, s_hat, kappa):
             plane[i] = a
             verts[i, 0] = vertices[b]
             coeffs[i, 0] = 1.0
-            _basis_from_normal(normals[a], basis[i])
+            basis_from_normal(normals[a], basis[i])
             lam[i] = -kappa * barrier_first_derivative(da * da, s_hat) * 2.0 * da
             i += 1
     return plane, verts, coeffs, basis, lam

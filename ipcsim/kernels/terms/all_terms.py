@@ -22,9 +22,19 @@ call, in the terms' order, so a term gives the same bits either way.
     PULL           (vertices (k,), masses (k,), targets (k, 3), ρ, λ (k, 3), λ given)
     PLANE_PENALTY  (vertices (k,), origins (p, 3), unit normals (p, 3), d̂, stiffness)
     MESH_PENALTY   (d̂, stiffness)
+    TRIANGLES      (triangles (m, 3), Dm⁻¹ (m, 2, 2), rest areas (m,), (μ, λ) (m, 2),
+                    model, project to PSD)                                     2D
+    SPRINGS        (springs (k, 2), rest lengths² (k,), stiffnesses (k,),
+                    project to PSD)                                            2D
+    POINT_EDGE     (d̂², barrier form, weight of each point (n,))              2D
+    LINE_LECTURE   (vertices (k,), origins (p, 3), unit normals (p, 3), d̂,
+                    weight of each vertex (k,))                                2D
 
-and ``pairs`` the mesh's pairs the two mesh kinds sum over: (point–triangle (a, 4),
-edge–edge (b, 4), ε_x (b,), whether any pair may be within d̂).
+and ``pairs`` the mesh's pairs the mesh kinds sum over: (point–triangle (a, 4),
+edge–edge (b, 4), ε_x (b,), whether any pair may be within d̂); in a 2D scene the first
+array holds the point–edge pairs (a, 3) instead, the second none. A point–edge pair's
+weight is its point's (1 for the paper's barrier, the lecture's A d̂ / 16), and the
+lecture's half-planes are barriers on the distance itself (``line_barrier.py``).
 
 Barrier terms are evaluated at unit stiffness, as the terms are; the caller weighs them.
 """
@@ -44,18 +54,38 @@ from ipcsim.kernels.contact.penalty import (mesh_penalty_gradient, mesh_penalty_
                                             plane_penalty_hessian, plane_penalty_value)
 from ipcsim.kernels.contact.plane_barrier import (plane_barrier_gradient,
                                                   plane_barrier_hessian, plane_barrier_value)
+from ipcsim.kernels.contact.line_barrier import (line_barrier_gradient,
+                                                 line_barrier_hessian, line_barrier_value)
+from ipcsim.kernels.contact.point_edge_barrier import (pe_barrier_gradient,
+                                                       pe_barrier_hessian_blocks,
+                                                       pe_barrier_value)
+from ipcsim.kernels.elasticity.springs import (spring_energy, spring_gradient,
+                                               spring_hessian_values)
 from ipcsim.kernels.elasticity.tets import (elastic_energy, elastic_gradient,
                                             elastic_hessian_values)
+from ipcsim.kernels.elasticity.triangles import (triangle_energy, triangle_gradient,
+                                                 triangle_hessian_values)
 from ipcsim.kernels.terms.simple import (body_force_gradient, body_force_value,
                                          damping_value, inertia_gradient, inertia_value,
                                          lumped_mass_diagonal, pull_gradient,
                                          pull_hessian_diagonal, pull_value)
+from ipcsim.compiler.jit import njit
 from ipcsim.compiler.twin import kernel
 
 INERTIA, BODY_FORCE, ELASTICITY, DAMPING = 0, 1, 2, 3
 PLANE_CONTACT, MESH_CONTACT, FRICTION, PULL = 4, 5, 6, 7
 PLANE_PENALTY, MESH_PENALTY = 8, 9
-N_KINDS = 10
+TRIANGLES, SPRINGS, POINT_EDGE, LINE_LECTURE = 10, 11, 12, 13
+N_KINDS = 14
+
+
+@njit(cache=True)
+def point_weights(pairs, weight_of_point):
+    """(k,) each point–edge pair's weight: its point's."""
+    w = np.empty(pairs.shape[0])
+    for i in range(pairs.shape[0]):
+        w[i] = weight_of_point[pairs[i, 0]]
+    return w
 
 
 @kernel()
@@ -92,6 +122,19 @@ def term_values(x, present, terms, pairs):
     if present[MESH_PENALTY]:
         t = terms[MESH_PENALTY]
         out[MESH_PENALTY] = mesh_penalty_value(x, pairs[0], pairs[1], t[0], t[1])
+    if present[TRIANGLES]:
+        t = terms[TRIANGLES]
+        out[TRIANGLES] = triangle_energy(x, t[0], t[1], t[2], t[3], t[4])
+    if present[SPRINGS]:
+        t = terms[SPRINGS]
+        out[SPRINGS] = spring_energy(x, t[0], t[1], t[2])
+    if present[POINT_EDGE] and pairs[3]:
+        t = terms[POINT_EDGE]
+        out[POINT_EDGE] = pe_barrier_value(x, pairs[0], point_weights(pairs[0], t[2]), t[0],
+                                           1.0, t[1])
+    if present[LINE_LECTURE]:
+        t = terms[LINE_LECTURE]
+        out[LINE_LECTURE] = line_barrier_value(x, t[0], t[1], t[2], t[3], t[4])
     return out
 
 
@@ -129,6 +172,19 @@ def term_gradients(x, present, terms, pairs):
     if present[MESH_PENALTY]:
         t = terms[MESH_PENALTY]
         out[MESH_PENALTY] = mesh_penalty_gradient(x, pairs[0], pairs[1], t[0], t[1])
+    if present[TRIANGLES]:
+        t = terms[TRIANGLES]
+        out[TRIANGLES] = triangle_gradient(x, t[0], t[1], t[2], t[3], t[4])
+    if present[SPRINGS]:
+        t = terms[SPRINGS]
+        out[SPRINGS] = spring_gradient(x, t[0], t[1], t[2])
+    if present[POINT_EDGE] and pairs[3]:
+        t = terms[POINT_EDGE]
+        out[POINT_EDGE] = pe_barrier_gradient(x, pairs[0], point_weights(pairs[0], t[2]),
+                                              t[0], 1.0, t[1])
+    if present[LINE_LECTURE]:
+        t = terms[LINE_LECTURE]
+        out[LINE_LECTURE] = line_barrier_gradient(x, t[0], t[1], t[2], t[3], t[4])
     return out
 
 
@@ -153,8 +209,9 @@ def weighted_gradient(gradients, weighing, kappa):
 def add_term_hessians_dense(A, coupling, x, present, factors, free_index, p, terms, pairs):
     """A += Σ factors[kind]·∇²(term) over free DOFs, the free rows' kinematic columns
     going to coupling as H_fk p_k (``assembly.add_triplets_dense``): the constant-pattern
-    terms first (inertia, elasticity, damping), then the others, in the order
-    ``solver/assembly.DenseAssembler`` adds the terms' own Hessians. Body forces have none."""
+    terms first (inertia, elasticity, damping; in 2D triangles and springs), then the
+    others, in the order ``solver/assembly.DenseAssembler`` adds the terms' own Hessians.
+    Body forces have none."""
     if present[INERTIA]:
         dofs = np.arange(3 * x.shape[0])
         add_triplets_dense(A, dofs, dofs, lumped_mass_diagonal(terms[INERTIA][0]),
@@ -166,6 +223,14 @@ def add_term_hessians_dense(A, coupling, x, present, factors, free_index, p, ter
     if present[DAMPING]:
         t = terms[DAMPING]
         add_blocks_dense(A, t[1], t[2] * factors[DAMPING], t[3], free_index, p, coupling)
+    if present[TRIANGLES]:
+        t = terms[TRIANGLES]
+        vals = triangle_hessian_values(x, t[0], t[1], t[2], t[3], t[4], t[5])
+        add_blocks_dense(A, vals, factors[TRIANGLES], t[0], free_index, p, coupling)
+    if present[SPRINGS]:
+        t = terms[SPRINGS]
+        vals = spring_hessian_values(x, t[0], t[1], t[2], t[3])
+        add_blocks_dense(A, vals, factors[SPRINGS], t[0], free_index, p, coupling)
     if present[PLANE_CONTACT]:
         t = terms[PLANE_CONTACT]
         rows, cols, vals = plane_barrier_hessian(x, t[0], t[1], t[2], t[3], 1.0)
@@ -193,4 +258,14 @@ def add_term_hessians_dense(A, coupling, x, present, factors, free_index, p, ter
         t = terms[MESH_PENALTY]
         rows, cols, vals = mesh_penalty_hessian(x, pairs[0], pairs[1], t[0], t[1], True)
         add_triplets_dense(A, rows, cols, vals, factors[MESH_PENALTY], free_index, p,
+                           coupling)
+    if present[POINT_EDGE] and pairs[3]:
+        t = terms[POINT_EDGE]
+        stencils, vals = pe_barrier_hessian_blocks(x, pairs[0], point_weights(pairs[0], t[2]),
+                                                   t[0], 1.0, t[1], True)
+        add_blocks_dense(A, vals, factors[POINT_EDGE], stencils, free_index, p, coupling)
+    if present[LINE_LECTURE]:
+        t = terms[LINE_LECTURE]
+        rows, cols, vals = line_barrier_hessian(x, t[0], t[1], t[2], t[3], t[4])
+        add_triplets_dense(A, rows, cols, vals, factors[LINE_LECTURE], free_index, p,
                            coupling)

@@ -1,8 +1,9 @@
 """The line search of a Newton direction in one call: the feasible step along p and the
 energy decrease along it (IPC, Algorithm 1: the CCD-bounded, backtracking line search).
 
-``feasible_step`` bounds the step: the terms' own bounds (the neo-Hookean inversion bound,
-the planes' CCD), then the mesh's CCD. Under large time steps CCD keeps cutting Newton's
+``feasible_step`` bounds the step: the terms' own bounds (the neo-Hookean inversion bound
+of tets or, in 2D, triangles, the planes' CCD), then the mesh's CCD (in 2D over its
+point–edge pairs). Under large time steps CCD keeps cutting Newton's
 directions to a small α, and the pairs swept over a whole direction are then mostly pairs
 it never reaches; so the mesh is first swept over [0, β] with β twice the α of the
 step's previous line search, and only when nothing stops the motion inside it over the
@@ -24,7 +25,8 @@ Arguments, besides x (n, 3) and p (n, 3):
     barrier, kappa            in the potential's order, which of them κ scales, κ
     terms                     the kinds' data tuples (``all_terms``)
     mesh                      (vertices (v, 1), edges, triangles, tags, self collision,
-                              rest positions, whether there is mesh contact)
+                              rest positions, whether there is mesh contact, planar:
+                              a 2D mesh, whose pairs are point–edge pairs)
     bounds                    (NH inversion bound applies, its minimum volume ratio,
                               the planes' keep fraction)
     prescribed                (kinematic (n,), targets (n, 3), motion remaining)
@@ -39,12 +41,15 @@ import math
 
 import numpy as np
 
-from ipcsim.kernels.contact.broad_phase import candidate_pairs, swept_pairs_within
+from ipcsim.kernels.contact.broad_phase import (candidate_pairs, point_edge_candidate_pairs,
+                                                swept_pairs_within)
 from ipcsim.kernels.contact.ccd import max_step
 from ipcsim.kernels.contact.mollifier import edge_edge_mollifier_thresholds
 from ipcsim.kernels.contact.plane_barrier import plane_ccd_max_step
 from ipcsim.kernels.elasticity.tets import max_step_no_inversion
-from ipcsim.kernels.terms.all_terms import ELASTICITY, N_KINDS, PLANE_CONTACT, term_values
+from ipcsim.kernels.elasticity.triangles import max_step_no_inversion_2d
+from ipcsim.kernels.terms.all_terms import (ELASTICITY, LINE_LECTURE, N_KINDS, PLANE_CONTACT,
+                                            TRIANGLES, term_values)
 from ipcsim.compiler.twin import kernel
 
 
@@ -79,21 +84,30 @@ def _sweep(x, p3, beta, mesh, inflation, ccd, gap_fraction, ccd_iterations):
     """(the safe α within [0, β], pt, ee, ε_x, pt ids, ee ids): the pairs whose boxes,
     grown by ``inflation``, meet along [x, x + βp], narrowed to [x, x + αp] when CCD stops
     the motion at α < β. Ids are unique in the mesh: point·n_triangles + triangle,
-    edge_a·n_edges + edge_b."""
+    edge_a·n_edges + edge_b (2D: point–edge pairs as pt, point·n_edges + edge)."""
     vertices, edges, triangles, tags, self_collision, rest = (mesh[0], mesh[1], mesh[2],
                                                               mesh[3], mesh[4], mesh[5])
     x1 = x + beta * p3
-    pt, ee, pt_index, ee_index = candidate_pairs(x, x1, vertices, edges, triangles, tags,
-                                                 inflation, self_collision)
-    eps_x = edge_edge_mollifier_thresholds(rest, ee) if ee.shape[0] > 0 else np.zeros(0)
-    pt_id = pt_index[:, 0] * triangles.shape[0] + pt_index[:, 1]
-    ee_id = ee_index[:, 0] * edges.shape[0] + ee_index[:, 1]
+    if mesh[7]:  # 2D: point–edge pairs in pt's place, ids point·n_edges + edge
+        pt, pe_index = point_edge_candidate_pairs(x, x1, vertices, edges, (tags[0], tags[1]),
+                                                  inflation, self_collision)
+        pt_id = pe_index[:, 0] * edges.shape[0] + pe_index[:, 1]
+        ee, ee_id, eps_x = np.zeros((0, 4), np.int64), np.zeros(0, np.int64), np.zeros(0)
+    else:
+        pt, ee, pt_index, ee_index = candidate_pairs(x, x1, vertices, edges, triangles, tags,
+                                                     inflation, self_collision)
+        eps_x = edge_edge_mollifier_thresholds(rest, ee) if ee.shape[0] > 0 else np.zeros(0)
+        pt_id = pt_index[:, 0] * triangles.shape[0] + pt_index[:, 1]
+        ee_id = ee_index[:, 0] * edges.shape[0] + ee_index[:, 1]
     if not ccd or pt.shape[0] + ee.shape[0] == 0:
         return beta, pt, ee, eps_x, pt_id, ee_id
-    stencils = np.empty((pt.shape[0] + ee.shape[0], 4), dtype=np.int64)
-    stencils[:pt.shape[0]] = pt
-    stencils[pt.shape[0]:] = ee
-    alpha = beta * max_step(x, x1, stencils, pt.shape[0], gap_fraction, ccd_iterations)
+    if mesh[7]:
+        alpha = beta * max_step(x, x1, pt, 0, gap_fraction, ccd_iterations)
+    else:
+        stencils = np.empty((pt.shape[0] + ee.shape[0], 4), dtype=np.int64)
+        stencils[:pt.shape[0]] = pt
+        stencils[pt.shape[0]:] = ee
+        alpha = beta * max_step(x, x1, stencils, pt.shape[0], gap_fraction, ccd_iterations)
     if alpha < beta:
         # the line search only visits [x, x + αp]: the pairs swept over that part alone
         # are far fewer, which makes each of its energy evaluations cheaper
@@ -114,9 +128,16 @@ def feasible_step(x, p3, present, terms, mesh, bounds, prescribed, sweep):
     elastic, plane = terms[ELASTICITY], terms[PLANE_CONTACT]
     if present[ELASTICITY] and bounds[0] and elastic[0].shape[0] > 0:
         alpha = min(alpha, max_step_no_inversion(x, p3, elastic[0], bounds[1]))
+    triangles = terms[TRIANGLES]
+    if present[TRIANGLES] and bounds[0] and triangles[0].shape[0] > 0:
+        alpha = min(alpha, max_step_no_inversion_2d(x, p3, triangles[0], bounds[1]))
     if present[PLANE_CONTACT]:
         alpha = min(alpha, plane_ccd_max_step(x, p3.reshape(-1), plane[0], plane[1],
                                               plane[2], bounds[2]))
+    if present[LINE_LECTURE]:
+        line = terms[LINE_LECTURE]
+        alpha = min(alpha, plane_ccd_max_step(x, p3.reshape(-1), line[0], line[1], line[2],
+                                              bounds[2]))
     ccd_alpha = 1.0
     pt, ee, eps_x = np.zeros((0, 4), np.int64), np.zeros((0, 4), np.int64), np.zeros(0)
     pt_id, ee_id = np.zeros(0, np.int64), np.zeros(0, np.int64)

@@ -13,7 +13,7 @@ EPS = np.finfo(float).eps
 HALVINGS = 40
 NO_MESH = (np.zeros((0, 1), dtype=np.int64), np.zeros((0, 2), dtype=np.int64),
            np.zeros((0, 3), dtype=np.int64), (np.zeros((0, 2), dtype=np.int64),) * 3, False,
-           np.zeros((0, 3)), False)
+           np.zeros((0, 3)), False, False)
 
 
 def _energy(x, x_min):
