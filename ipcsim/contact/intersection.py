@@ -50,6 +50,8 @@ def _positions(x) -> np.ndarray:
 
 def _connectivity(a, width: int, n: int, name: str) -> np.ndarray:
     a = np.ascontiguousarray(a, dtype=np.int64)
+    if not a.flags.writeable:  # a Model's arrays: the compiled kernels take writeable ones
+        a = a.copy()
     if a.size == 0:
         return a.reshape(0, width)
     if a.ndim != 2 or a.shape[1] != width:
