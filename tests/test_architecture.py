@@ -192,10 +192,12 @@ def test_terms_are_frozen_records():
 
 
 def test_newton_takes_a_problem_a_start_and_a_tolerance():
+    """... and, optionally, an iteration budget (an adaptive step's)."""
     from ipcsim.solver.newton import NewtonSolver
 
-    assert list(inspect.signature(NewtonSolver.solve).parameters) == [
-        "self", "problem", "point", "tol"]
+    parameters = inspect.signature(NewtonSolver.solve).parameters
+    assert list(parameters) == ["self", "problem", "point", "tol", "max_iterations"]
+    assert parameters["max_iterations"].default is None
 
 
 def _functions():

@@ -55,7 +55,9 @@ def check_frames(folder: Path, out=None, totals: dict | None = None, scene=None)
         out.write(f"note: kinematic obstacles touch or overlap each other "
                   f"({counts['obstacle_contacts']} edge-triangle pairs over all frames); IPC "
                   "neither prevents nor promises anything between two obstacles\n")
-    clean = "no intersection and no inverted tet" if self_collision else "no inverted tet"
+    element = "triangle" if scene.dimension == 2 else "tet"
+    clean = (f"no intersection and no inverted {element}" if self_collision
+             else f"no inverted {element}")
     out.write(f"checked {len(series)} frames: "
               + (f"{clean}\n" if bad == 0 else f"{bad} frames with problems\n"))
     return 0 if bad == 0 else 1
