@@ -63,6 +63,20 @@ def check_frames(folder: Path, out=None, totals: dict | None = None, scene=None)
     return 0 if bad == 0 else 1
 
 
+def _frame_positions(mesh, vtu, n: int):
+    """(the frame's positions, [its non-finite vertices' problem] or []); a frame of
+    another vertex count than the run's first is an error."""
+    import numpy as np
+
+    from ..io.vtk import FrameError
+
+    x = np.asarray(mesh.points, dtype=np.float64)
+    if len(x) != n:
+        raise FrameError(f"{vtu}: {len(x)} vertices, the run's first frame has {n}")
+    bad = int((~np.isfinite(x).all(axis=1)).sum())
+    return x, ([f"{bad} vertices with non-finite coordinates"] if bad else [])
+
+
 class _FrameChecker:
     """The fixed mesh of a run's frames (from the first one) and what is judged on it:
     edge-triangle pairs of which at least one side is a simulated body (pairs between two
@@ -107,14 +121,10 @@ class _FrameChecker:
         import numpy as np
 
         from .intersection import find_intersections, inverted_tets
-        from ..io.vtk import FrameError
 
-        x = np.asarray(mesh.points, dtype=np.float64)
-        if len(x) != self.n:
-            raise FrameError(f"{vtu}: {len(x)} vertices, the run's first frame has {self.n}")
-        bad = int((~np.isfinite(x).all(axis=1)).sum())
-        if bad:
-            return [f"{bad} vertices with non-finite coordinates"]
+        x, problems = _frame_positions(mesh, vtu, self.n)
+        if problems:
+            return problems
         pairs = find_intersections(x, self.edges, self.triangles)
         between_obstacles = (self.obstacle_vertex[self.edges[pairs[:, 0]]].all(axis=1)
                              & self.obstacle_vertex[self.triangles[pairs[:, 1]]].all(axis=1))
@@ -211,14 +221,10 @@ class _PlanarFrameChecker:
         import numpy as np
 
         from .intersection import crossing_edges_2d, inverted_triangles
-        from ..io.vtk import FrameError
 
-        x = np.asarray(mesh.points, dtype=np.float64)
-        if len(x) != self.n:
-            raise FrameError(f"{vtu}: {len(x)} vertices, the run's first frame has {self.n}")
-        bad = int((~np.isfinite(x).all(axis=1)).sum())
-        if bad:
-            return [f"{bad} vertices with non-finite coordinates"]
+        x, problems = _frame_positions(mesh, vtu, self.n)
+        if problems:
+            return problems
         pairs = crossing_edges_2d(x, self.edges, None if self.self_collision else self.body)
         ends = self.edges[pairs]  # (k, 2, 2)
         between_obstacles = self.obstacle_vertex[ends].all(axis=(1, 2))
