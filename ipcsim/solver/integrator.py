@@ -108,10 +108,34 @@ def damping_scale(integrator, stiffness: float, h_scene: float) -> float:
     return stiffness / h_scene * (integrator.damping_weight / h_scene)
 
 
-class BackwardEuler:
+class _OneStep:
+    """What the one-step integrators (BE, Newmark) share: no history, friction's slip
+    and damping's displacement x − xₙ over the step's h, as the original has them."""
+
+    uses_history = False  # reads no step before the current one
+    h: float
+
+    @property
+    def velocity_step(self) -> float:
+        """h: friction's slip and damping's displacement are x − xₙ (for Newmark the
+        original's friction, threshold ε_v h, not Newmark's own velocity)."""
+        return self.h
+
+    @property
+    def damping_weight(self) -> float:
+        """h: the original's damping, (k/h)·K on x − xₙ at the scene's h."""
+        return self.h
+
+    def lag_origin(self, x):
+        return x
+
+    def after(self, x, v) -> StepHistory:
+        return StepHistory(x, v, self.h)
+
+
+class BackwardEuler(_OneStep):
     name = "BE"
     order = 1  # of its local error estimate's step: err ∝ h^(order + 1)
-    uses_history = False  # reads no step before the current one
     # its update is v = Δx/h, a = Δv/h for every vertex: the prescribed vertices' rates
     # already (``fix_kinematic_velocities`` would compute them again, bit for bit)
     kinematic_rates = True
@@ -124,24 +148,9 @@ class BackwardEuler:
         """Weight of Ψ and body forces in the incremental potential."""
         return self.h * self.h
 
-    @property
-    def velocity_step(self) -> float:
-        """h: friction's slip and damping's displacement are x − xₙ = h vₙ₊₁."""
-        return self.h
-
-    @property
-    def damping_weight(self) -> float:
-        return self.h
-
-    def lag_origin(self, x):
-        return x
-
     def at(self, h: float, history: StepHistory | None = None) -> BackwardEuler:
         """This integrator for a step of length h (BE reads no history)."""
         return BackwardEuler(h)
-
-    def after(self, x, v) -> StepHistory:
-        return StepHistory(x, v, self.h)
 
     def predict(self, x, v, a):
         return x + self.h * v
@@ -213,9 +222,8 @@ class BDF2:
         return local_error(x_new, x, v, self.h, self.history)
 
 
-class Newmark:
+class Newmark(_OneStep):
     name = "NM"
-    uses_history = False
     kinematic_rates = False  # its update gives the prescribed vertices Newmark's rates
 
     def __init__(self, h: float, beta: float = 0.25, gamma: float = 0.5):
@@ -227,25 +235,8 @@ class Newmark:
     def force_weight(self) -> float:
         return self.beta * self.h * self.h
 
-    @property
-    def velocity_step(self) -> float:
-        """h: the original's friction (slip x − xₙ, threshold ε_v h), not Newmark's own
-        velocity."""
-        return self.h
-
-    @property
-    def damping_weight(self) -> float:
-        """h: the original's damping, (k/h)·K on x − xₙ at the scene's h."""
-        return self.h
-
-    def lag_origin(self, x):
-        return x
-
     def at(self, h: float, history: StepHistory | None = None) -> Newmark:
         return Newmark(h, self.beta, self.gamma)
-
-    def after(self, x, v) -> StepHistory:
-        return StepHistory(x, v, self.h)
 
     def predict(self, x, v, a):
         return x + self.h * v + self.h * self.h * (0.5 - self.beta) * a
