@@ -76,6 +76,27 @@ def _frame_positions(mesh, vtu, n: int):
     bad = int((~np.isfinite(x).all(axis=1)).sum())
     return x, ([f"{bad} vertices with non-finite coordinates"] if bad else [])
 
+def _tally(counts: dict, between_obstacles, inverted: int, pairs_are: str,
+           elements_are: str) -> tuple[int, list[str]]:
+    """Count a frame's crossing pairs (those between two obstacles apart: they may
+    cross) and inverted elements into ``counts``; (crossing pairs, the problem line)."""
+    counts["obstacle_contacts"] += int(between_obstacles.sum())
+    n_pairs = int((~between_obstacles).sum())
+    counts["intersections"] += n_pairs
+    counts["inverted_tets"] += inverted
+    if not (n_pairs or inverted):
+        return n_pairs, []
+    return n_pairs, [f"{n_pairs} {pairs_are}; {inverted} inverted {elements_are}"]
+
+
+def _on_or_beyond(points, origins, normals) -> int:
+    """How many points lie on or behind at least one of the planes (lines in 2D)."""
+    import numpy as np
+
+    offsets = points @ normals.T - np.einsum("pk,pk->p", origins, normals)
+    return int((offsets <= 0.0).any(axis=1).sum())
+
+
 
 class _FrameChecker:
     """The fixed mesh of a run's frames (from the first one) and what is judged on it:
@@ -118,7 +139,6 @@ class _FrameChecker:
 
     def check(self, mesh, vtu, counts: dict, time: float = 0.0) -> list[str]:
         """The problems of one frame (empty when it is clean); ``counts`` accumulates."""
-        import numpy as np
 
         from .intersection import find_intersections, inverted_tets
 
@@ -128,23 +148,14 @@ class _FrameChecker:
         pairs = find_intersections(x, self.edges, self.triangles)
         between_obstacles = (self.obstacle_vertex[self.edges[pairs[:, 0]]].all(axis=1)
                              & self.obstacle_vertex[self.triangles[pairs[:, 1]]].all(axis=1))
-        counts["obstacle_contacts"] += int(between_obstacles.sum())
-        n_pairs = int((~between_obstacles).sum())
-        inverted = len(inverted_tets(x, self.tets))
-        counts["intersections"] += n_pairs
-        counts["inverted_tets"] += inverted
-        problems = []
-        if n_pairs or inverted:
-            problems.append(f"{n_pairs} intersecting edge-triangle pairs; {inverted} inverted "
-                            "tets")
+        n_pairs, problems = _tally(counts, between_obstacles, len(inverted_tets(x, self.tets)),
+                                   "intersecting edge-triangle pairs", "tets")
         if self.solids is not None and n_pairs == 0:  # else a part is partly inside
             problems += self._contained(x, counts)
         if self.planes is not None and len(self.plane_vertices):
             # simulated vertices must stay strictly on the positive side of every plane
             origins, normals = self.planes
-            p = x[self.plane_vertices]
-            below = int((p @ normals.T - np.einsum("pk,pk->p", origins, normals) <= 0.0)
-                        .any(axis=1).sum())
+            below = _on_or_beyond(x[self.plane_vertices], origins, normals)
             counts["below_plane"] += below
             if below:
                 problems.append(f"{below} vertices on or below a plane")
@@ -228,23 +239,15 @@ class _PlanarFrameChecker:
         pairs = crossing_edges_2d(x, self.edges, None if self.self_collision else self.body)
         ends = self.edges[pairs]  # (k, 2, 2)
         between_obstacles = self.obstacle_vertex[ends].all(axis=(1, 2))
-        counts["obstacle_contacts"] += int(between_obstacles.sum())
-        n_pairs = int((~between_obstacles).sum())
-        inverted = len(inverted_triangles(x, self.elements))
-        counts["intersections"] += n_pairs
-        counts["inverted_tets"] += inverted
-        problems = []
-        if n_pairs or inverted:
-            problems.append(f"{n_pairs} crossing boundary-edge pairs; {inverted} inverted "
-                            "triangles")
+        _, problems = _tally(counts, between_obstacles,
+                             len(inverted_triangles(x, self.elements)),
+                             "crossing boundary-edge pairs", "triangles")
         if self.scene.planes and len(self.plane_vertices):
             origins, normals = self._planes_at(time)
             written = mesh.field_data.get("plane_origins")  # where the run had the lines
             if written is not None:
                 origins = np.asarray(written, dtype=float).reshape(-1, 3)
-            p = x[self.plane_vertices]
-            beyond = int((p @ normals.T - np.einsum("pk,pk->p", origins, normals) <= 0.0)
-                         .any(axis=1).sum())
+            beyond = _on_or_beyond(x[self.plane_vertices], origins, normals)
             counts["below_plane"] += beyond
             if beyond:
                 problems.append(f"{beyond} vertices on or beyond a line")
