@@ -92,14 +92,19 @@ def _physics_lines(s: SceneSpec) -> list[str]:
         L.append(f"timeIntegration NM {_f(s.newmark_beta)} {_f(s.newmark_gamma)}")
     else:
         L.append(f"timeIntegration {s.integrator}")
-    if s.time_tolerance is not None:
-        L.append(f"timeTolerance {_f(s.time_tolerance)}")
+    L += _given("timeTolerance", s.time_tolerance)
     L.append(f"dampingStiff {_f(s.damping_stiff)}")
     L.append(f"dampingRatio {_f(s.damping_ratio)}")
     L.append(f"warmStart {s.warm_start}")
     if not s.gravity:
         L.append("turnOffGravity")
     return L
+
+
+def _given(keyword: str, value, spell=None) -> list[str]:
+    """The line ``keyword value`` (value spelled by ``spell``, else as a number) where the
+    scene gives a value; none where it is None."""
+    return [] if value is None else [f"{keyword} {(spell or _f)(value)}"]
 
 
 def _contact_lines(s: SceneSpec) -> list[str]:
@@ -111,14 +116,10 @@ def _contact_lines(s: SceneSpec) -> list[str]:
         L.extend(_f(x) for x in (s.kappa or 0.0, s.dhat_start or s.dhat, s.dhat, s.dtol,
                                  s.epsv, s.epsv))
     else:
-        if s.kappa is not None:
-            L.append(f"kappa {_f(s.kappa)}")
+        L += _given("kappa", s.kappa)
         L.append(f"dHat {_f(s.dhat)}")
         L.append(f"epsv {_f(s.epsv)}")
-    if s.dhat_abs is not None:
-        L.append(f"dHatAbs {_f(s.dhat_abs)}")
-    if s.epsv_abs is not None:
-        L.append(f"epsvAbs {_f(s.epsv_abs)}")
+    L += _given("dHatAbs", s.dhat_abs) + _given("epsvAbs", s.epsv_abs)
     L.append(f"fricIterAmt {s.friction_iterations}")
     L.append(f"tol {len(s.newton_tol)}")
     L.extend(_f(x) for x in s.newton_tol)
@@ -127,8 +128,7 @@ def _contact_lines(s: SceneSpec) -> list[str]:
         L.append("useAbsParameters")
     L.append(f"constraintSolver {s.constraint_solver}")
     L.extend(_constraint_lines(s))
-    if s.linear_solver is not None:
-        L.append(f"linearSolver {_SOLVER_SPELLING.get(s.linear_solver, s.linear_solver)}")
+    L += _given("linearSolver", s.linear_solver, lambda v: _SOLVER_SPELLING.get(v, v))
     return L
 
 
@@ -142,10 +142,8 @@ def _switch_lines(s: SceneSpec, folder: Path, out) -> list[str]:
         L.append(f"script {s.script}{params}")
     L.append(f"handleRatio {_f(s.handle_ratio)}")
     L.append(f"size {_f(s.size)}")
-    if s.rotate_model is not None:
-        L.append(f"rotateModel {_fs(s.rotate_model)}")
-    if s.restart is not None:
-        L.append(f"restart {_token_path(s.restart, folder, 'restart file', out)}")
+    L += _given("rotateModel", s.rotate_model, _fs)
+    L += _given("restart", s.restart, lambda p: _token_path(p, folder, "restart file", out))
     L.append(f"playBackSpeed {_f(s.playback_speed)}")
     if s.append_str:
         if any(ch.isspace() for ch in s.append_str):
@@ -182,16 +180,12 @@ def _shape_line(sh: ShapeSpec, folder: Path, out) -> str:
         m = sh.material
         parts.append(f"material {_f(m.density)} {_f(m.youngs_modulus)} "
                      f"{_f(m.poisson_ratio)}")
-    if sh.linear_velocity is not None:
-        parts.append(f"linearVelocity {_fs(sh.linear_velocity)}")
-    if sh.angular_velocity_deg is not None:
-        parts.append(f"angularVelocity {_fs(sh.angular_velocity_deg)}")
-    if sh.init_velocity is not None:
-        iv = sh.init_velocity
-        parts.append(f"initVel {_fs(iv.linear)}  {_fs(iv.angular_deg)}")
-    if sh.mesh_sequence is not None:
-        parts.append(f"meshSeq "
-                     f"{_token_path(sh.mesh_sequence, folder, 'mesh sequence', out)}")
+    parts += _given("linearVelocity", sh.linear_velocity, _fs)
+    parts += _given("angularVelocity", sh.angular_velocity_deg, _fs)
+    parts += _given("initVel", sh.init_velocity,
+                    lambda iv: f"{_fs(iv.linear)}  {_fs(iv.angular_deg)}")
+    parts += _given("meshSeq", sh.mesh_sequence,
+                    lambda p: _token_path(p, folder, "mesh sequence", out))
     line = "  ".join(parts)
     conts = []
     for d in sh.dbc:
