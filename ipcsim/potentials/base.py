@@ -312,6 +312,19 @@ class StepContext(Struct, frozen=True, eq=False):
     plane_origins: np.ndarray | None = None  # (p, 3) where the planes are (moving lines)
 
 
+class ContactTerm:
+    """What the contact terms share (a mixin of their Structs): their pairs come and go
+    with x, so their Hessian has no fixed pattern, and they act within the squared
+    distance ŝ = d̂² (``s_hat``) of their field ``dhat``."""
+
+    __slots__ = ()
+    constant_pattern: ClassVar[bool] = False
+
+    @property
+    def s_hat(self) -> float:
+        return self.dhat * self.dhat
+
+
 class Potential(Protocol):
     """A term of the incremental potential (see the module docstring)."""
 

@@ -18,20 +18,15 @@ import numpy as np
 
 from ..kernels.terms import all_terms as terms_kernels
 from ..kernels.contact import pair_barrier as kb
-from .base import BlockHessian, StepContext, Triplets
+from .base import BlockHessian, ContactTerm, StepContext, Triplets
 
 
-class MeshContact(Struct, frozen=True, eq=False):
+class MeshContact(Struct, ContactTerm, frozen=True, eq=False):
     """The barrier of the mesh's collision set at unit κ: Σ b(d², d̂²)."""
 
     dhat: float
     name: ClassVar[str] = "mesh contact"
     kind: ClassVar[int] = terms_kernels.MESH_CONTACT  # its data in the all-terms kernels
-    constant_pattern: ClassVar[bool] = False
-
-    @property
-    def s_hat(self) -> float:
-        return self.dhat * self.dhat
 
     def value(self, x, ctx: StepContext):
         c = ctx.collisions

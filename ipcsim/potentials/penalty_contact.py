@@ -20,10 +20,10 @@ from msgspec import Struct
 from ..kernels.terms import all_terms as terms_kernels
 from ..contact.planes import Planes
 from ..kernels.contact import penalty as kp
-from .base import StepContext, Triplets
+from .base import ContactTerm, StepContext, Triplets
 
 
-class PenaltyPlaneContact(Struct, frozen=True, eq=False):
+class PenaltyPlaneContact(Struct, ContactTerm, frozen=True, eq=False):
     """The penalty baseline's plane contact: a stiff quadratic inside d̂, no barrier."""
 
     planes: Planes
@@ -31,7 +31,6 @@ class PenaltyPlaneContact(Struct, frozen=True, eq=False):
     stiffness: float
     name: ClassVar[str] = "plane penalty contact"
     kind: ClassVar[int] = terms_kernels.PLANE_PENALTY  # its data in the all-terms kernels
-    constant_pattern: ClassVar[bool] = False
 
     def _args(self):
         p = self.planes
@@ -50,14 +49,13 @@ class PenaltyPlaneContact(Struct, frozen=True, eq=False):
         return 1.0
 
 
-class PenaltyMeshContact(Struct, frozen=True, eq=False):
+class PenaltyMeshContact(Struct, ContactTerm, frozen=True, eq=False):
     """The penalty baseline's mesh contact: a stiff quadratic inside d̂, no barrier."""
 
     dhat: float
     stiffness: float
     name: ClassVar[str] = "mesh penalty contact"
     kind: ClassVar[int] = terms_kernels.MESH_PENALTY  # its data in the all-terms kernels
-    constant_pattern: ClassVar[bool] = False
 
     def value(self, x, ctx: StepContext):
         c = ctx.collisions

@@ -33,7 +33,7 @@ from ..kernels.elasticity import springs as ks
 from ..kernels.elasticity import triangles as ktri
 from ..kernels.elasticity.tets import FIXED_COROTATED, NEO_HOOKEAN
 from ..kernels.terms import all_terms as terms_kernels
-from .base import ElementHessian, StepContext, Triplets
+from .base import ContactTerm, ElementHessian, StepContext, Triplets
 from .plane_contact import CCD_KEEP_FRACTION
 
 
@@ -136,7 +136,7 @@ class Springs(Struct, frozen=True, eq=False):
                                         self.stiffness[lo:hi], project_psd)
 
 
-class PointEdgeContact(Struct, frozen=True, eq=False):
+class PointEdgeContact(Struct, ContactTerm, frozen=True, eq=False):
     """The barrier of the point–edge pairs of ``ctx.collisions`` at unit κ: Σ w b(d², d̂²),
     each pair weighted by its point's ``point_weight`` (n,), in barrier ``form``."""
 
@@ -145,14 +145,9 @@ class PointEdgeContact(Struct, frozen=True, eq=False):
     point_weight: np.ndarray
     name: ClassVar[str] = "mesh contact"
     kind: ClassVar[int] = terms_kernels.POINT_EDGE
-    constant_pattern: ClassVar[bool] = False
 
     def __post_init__(self):
         force_setattr(self, "point_weight", _owned(self.point_weight, np.float64))
-
-    @property
-    def s_hat(self) -> float:
-        return self.dhat * self.dhat
 
     def _pairs(self, ctx: StepContext):
         c = ctx.collisions
@@ -180,7 +175,7 @@ class PointEdgeContact(Struct, frozen=True, eq=False):
                                                          1.0, self.form, True))
 
 
-class LineContact(Struct, frozen=True, eq=False):
+class LineContact(Struct, ContactTerm, frozen=True, eq=False):
     """The lecture's half-plane barrier at unit κ: Σ w_j b_L(d, d̂) over every (line,
     vertex) pair, w_j = A_j d̂ / 2 (``vertex_weight``, one per vertex of ``planes``). The
     lines' origins are ``ctx.plane_origins`` where they move."""
@@ -190,7 +185,6 @@ class LineContact(Struct, frozen=True, eq=False):
     vertex_weight: np.ndarray
     name: ClassVar[str] = "plane contact"
     kind: ClassVar[int] = terms_kernels.LINE_LECTURE
-    constant_pattern: ClassVar[bool] = False
 
     def __post_init__(self):
         force_setattr(self, "vertex_weight", _owned(self.vertex_weight, np.float64))

@@ -11,24 +11,19 @@ from msgspec import Struct
 from ..kernels.terms import all_terms as terms_kernels
 from ..contact.planes import Planes
 from ..kernels.contact import plane_barrier as k
-from .base import StepContext, Triplets
+from .base import ContactTerm, StepContext, Triplets
 
 # CCD stops a vertex at 10% of its current gap to a plane: never at zero distance.
 CCD_KEEP_FRACTION = 0.1
 
 
-class PlaneContact(Struct, frozen=True, eq=False):
+class PlaneContact(Struct, ContactTerm, frozen=True, eq=False):
     """The barrier of the vertices near the contact planes at unit κ."""
 
     planes: Planes
     dhat: float
     name: ClassVar[str] = "plane contact"
     kind: ClassVar[int] = terms_kernels.PLANE_CONTACT  # its data in the all-terms kernels
-    constant_pattern: ClassVar[bool] = False
-
-    @property
-    def s_hat(self) -> float:
-        return self.dhat * self.dhat
 
     def _args(self, ctx=None):
         planes = self.planes.at(ctx)  # where a 2D scene's lines move
