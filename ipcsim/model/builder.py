@@ -27,7 +27,7 @@ import msgspec
 from msgspec import Struct, field
 import numpy as np
 
-from ..errors import ArgumentError, MeshError, SceneError
+from ..errors import MeshError, SceneError
 from ..scene.spec import SUPPORTED_SCRIPTS, SceneSpec, ShapeSpec
 from . import mesh_io
 from .kinematics import rotation_axis_angle, rotation_xyz

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ipcsim.errors import MeshError, SceneError
+from ipcsim.errors import MeshError
 from ipcsim.model import mesh_io
 from ipcsim.model.build import build_model
 from ipcsim.model.builder_2d import build_model_2d
