@@ -14,33 +14,6 @@ from ipcsim.kernels.algebra.linalg import dot
 
 
 @njit(cache=True)
-def barrier(s, s_hat):
-    if s >= s_hat:
-        return 0.0
-    if s <= 0.0:
-        return np.inf
-    return -(s - s_hat) ** 2 * np.log(s / s_hat)
-
-
-@njit(cache=True)
-def barrier_first_derivative(s, s_hat):
-    # b' = -2 (s - ŝ) ln(s/ŝ) - (s - ŝ)² / s
-    if s >= s_hat:
-        return 0.0
-    r = s - s_hat
-    return -2.0 * r * np.log(s / s_hat) - r * r / s
-
-
-@njit(cache=True)
-def barrier_second_derivative(s, s_hat):
-    # b'' = -2 ln(s/ŝ) - 4 (s - ŝ)/s + (s - ŝ)²/s²
-    if s >= s_hat:
-        return 0.0
-    r = s - s_hat
-    return -2.0 * np.log(s / s_hat) - 4.0 * r / s + (r / s) ** 2
-
-
-@njit(cache=True)
 def barrier_and_derivatives(s, s_hat):
     """(b, b', b'') at s in one pass (one logarithm); all three are 0 for s ≥ ŝ.
     For s ≤ 0 the value is +inf (the derivatives are then meaningless)."""
@@ -54,6 +27,21 @@ def barrier_and_derivatives(s, s_hat):
     db = -2.0 * r * lg - r * r / s  # b' = −2 (s − ŝ) ln(s/ŝ) − (s − ŝ)²/s
     d2b = -2.0 * lg - 4.0 * r / s + (r / s) ** 2  # b'' = −2 ln(s/ŝ) − 4 (s − ŝ)/s + (s − ŝ)²/s²
     return b, db, d2b
+
+
+@njit(cache=True)
+def barrier(s, s_hat):
+    return barrier_and_derivatives(s, s_hat)[0]
+
+
+@njit(cache=True)
+def barrier_first_derivative(s, s_hat):
+    return barrier_and_derivatives(s, s_hat)[1]
+
+
+@njit(cache=True)
+def barrier_second_derivative(s, s_hat):
+    return barrier_and_derivatives(s, s_hat)[2]
 
 
 # --- the lecture's barrier (phys-sim-book, lessons 3-8) ----------------------------------

@@ -261,10 +261,19 @@ def point_plane_distance_sq_hessian(p, t0, t1, t2):
 # line-line (infinite lines, non-parallel):  d = ((eb0 − ea0)·n)² / |n|²,  n = u×v
 # =========================================================================================
 
+@njit(cache=True, error_model="numpy", inline="always")
+def edge_directions(ea0, ea1, eb0, eb1):
+    """u = ea1 − ea0, v = eb1 − eb0 and the common normal n = u×v (the mollifier's c is
+    |n|²)."""
+    u = sub3(ea1, ea0)
+    v = sub3(eb1, eb0)
+    return u, v, cross3(u, v)
+
+
 @njit(cache=True, error_model="numpy")
 def line_line_distance_sq(ea0, ea1, eb0, eb1):
     # d = ((eb0 − ea0)·n)² / |n|²,  n = (ea1 − ea0)×(eb1 − eb0)
-    n = cross3(sub3(ea1, ea0), sub3(eb1, eb0))
+    _, _, n = edge_directions(ea0, ea1, eb0, eb1)
     s = dot3(sub3(eb0, ea0), n)
     return s * s / squared_norm3(n)
 
@@ -274,10 +283,8 @@ def _line_line_closest(ea0, ea1, eb0, eb1):
     # u = ea1 − ea0, v = eb1 − eb0, w = ea0 − eb0, n = u×v, N = |n|²
     # q = (ea0 + s u) − (eb0 + t v) = (w·n/N) n
     # s = −((w×v)·n)/N,  t = −((w×u)·n)/N      (from (q×v)·n = (q×u)·n = 0)
-    u = sub3(ea1, ea0)
-    v = sub3(eb1, eb0)
+    u, v, n = edge_directions(ea0, ea1, eb0, eb1)
     w = sub3(ea0, eb0)
-    n = cross3(u, v)
     N = squared_norm3(n)
     q = scale3(dot3(w, n) / N, n)
     s = -dot3(cross3(w, v), n) / N
@@ -507,7 +514,7 @@ PE_FEATURES = np.array([
 
 
 @njit(cache=True, error_model="numpy")
-def _feature_distance_sq(V, f):
+def feature_distance_sq(V, f):
     # V: tuple of the stencil's 3-vectors, f: a row of a *_FEATURES table
     if f[0] == POINT_POINT:
         return point_point_distance_sq(V[f[1]], V[f[2]])
@@ -519,7 +526,7 @@ def _feature_distance_sq(V, f):
 
 
 @njit(cache=True, error_model="numpy")
-def _feature_distance_sq_gradient(V, f):
+def feature_distance_sq_gradient(V, f):
     # sub-distance gradient scattered to the stencil: g[slot k] = g_sub[k], 0 elsewhere
     if f[0] == POINT_POINT:
         gs = point_point_distance_sq_gradient(V[f[1]], V[f[2]])
@@ -537,7 +544,7 @@ def _feature_distance_sq_gradient(V, f):
 
 
 @njit(cache=True, error_model="numpy")
-def _feature_distance_sq_hessian(V, f):
+def feature_distance_sq_hessian(V, f):
     # sub-distance Hessian scattered to the stencil: H[slot k, slot l] = H_sub[k, l]
     if f[0] == POINT_POINT:
         Hs = point_point_distance_sq_hessian(V[f[1]], V[f[2]])
@@ -564,21 +571,21 @@ def _feature_distance_sq_hessian(V, f):
 def point_triangle_distance_sq(p, t0, t1, t2, dtype=PT_AUTO):
     if dtype == PT_AUTO:
         dtype = point_triangle_distance_type(p, t0, t1, t2)
-    return _feature_distance_sq((p, t0, t1, t2), PT_FEATURES[dtype])
+    return feature_distance_sq((p, t0, t1, t2), PT_FEATURES[dtype])
 
 
 @njit(cache=True, error_model="numpy")
 def point_triangle_distance_sq_gradient(p, t0, t1, t2, dtype=PT_AUTO):
     if dtype == PT_AUTO:
         dtype = point_triangle_distance_type(p, t0, t1, t2)
-    return _feature_distance_sq_gradient((p, t0, t1, t2), PT_FEATURES[dtype])
+    return feature_distance_sq_gradient((p, t0, t1, t2), PT_FEATURES[dtype])
 
 
 @njit(cache=True, error_model="numpy")
 def point_triangle_distance_sq_hessian(p, t0, t1, t2, dtype=PT_AUTO):
     if dtype == PT_AUTO:
         dtype = point_triangle_distance_type(p, t0, t1, t2)
-    return _feature_distance_sq_hessian((p, t0, t1, t2), PT_FEATURES[dtype])
+    return feature_distance_sq_hessian((p, t0, t1, t2), PT_FEATURES[dtype])
 
 
 # --- edge-edge (ea0, ea1, eb0, eb1): endpoints, endpoint vs line, or line-line ------------
@@ -587,21 +594,21 @@ def point_triangle_distance_sq_hessian(p, t0, t1, t2, dtype=PT_AUTO):
 def edge_edge_distance_sq(ea0, ea1, eb0, eb1, dtype=EE_AUTO):
     if dtype == EE_AUTO:
         dtype = edge_edge_distance_type(ea0, ea1, eb0, eb1)
-    return _feature_distance_sq((ea0, ea1, eb0, eb1), EE_FEATURES[dtype])
+    return feature_distance_sq((ea0, ea1, eb0, eb1), EE_FEATURES[dtype])
 
 
 @njit(cache=True, error_model="numpy")
 def edge_edge_distance_sq_gradient(ea0, ea1, eb0, eb1, dtype=EE_AUTO):
     if dtype == EE_AUTO:
         dtype = edge_edge_distance_type(ea0, ea1, eb0, eb1)
-    return _feature_distance_sq_gradient((ea0, ea1, eb0, eb1), EE_FEATURES[dtype])
+    return feature_distance_sq_gradient((ea0, ea1, eb0, eb1), EE_FEATURES[dtype])
 
 
 @njit(cache=True, error_model="numpy")
 def edge_edge_distance_sq_hessian(ea0, ea1, eb0, eb1, dtype=EE_AUTO):
     if dtype == EE_AUTO:
         dtype = edge_edge_distance_type(ea0, ea1, eb0, eb1)
-    return _feature_distance_sq_hessian((ea0, ea1, eb0, eb1), EE_FEATURES[dtype])
+    return feature_distance_sq_hessian((ea0, ea1, eb0, eb1), EE_FEATURES[dtype])
 
 
 # --- point-edge (p, e0, e1): endpoint or point-line -----------------------------------------
@@ -610,18 +617,18 @@ def edge_edge_distance_sq_hessian(ea0, ea1, eb0, eb1, dtype=EE_AUTO):
 def point_edge_distance_sq(p, e0, e1, dtype=PE_AUTO):
     if dtype == PE_AUTO:
         dtype = point_edge_distance_type(p, e0, e1)
-    return _feature_distance_sq((p, e0, e1), PE_FEATURES[dtype])
+    return feature_distance_sq((p, e0, e1), PE_FEATURES[dtype])
 
 
 @njit(cache=True, error_model="numpy")
 def point_edge_distance_sq_gradient(p, e0, e1, dtype=PE_AUTO):
     if dtype == PE_AUTO:
         dtype = point_edge_distance_type(p, e0, e1)
-    return _feature_distance_sq_gradient((p, e0, e1), PE_FEATURES[dtype])
+    return feature_distance_sq_gradient((p, e0, e1), PE_FEATURES[dtype])
 
 
 @njit(cache=True, error_model="numpy")
 def point_edge_distance_sq_hessian(p, e0, e1, dtype=PE_AUTO):
     if dtype == PE_AUTO:
         dtype = point_edge_distance_type(p, e0, e1)
-    return _feature_distance_sq_hessian((p, e0, e1), PE_FEATURES[dtype])
+    return feature_distance_sq_hessian((p, e0, e1), PE_FEATURES[dtype])

@@ -17,6 +17,7 @@ import numpy as np
 from ipcsim.compiler.jit import njit
 
 from ipcsim.kernels.algebra.linalg import cross3, dot3, squared_norm3, sub3
+from ipcsim.kernels.contact.distance import edge_directions
 
 EE_MOLLIFIER_SCALE = 1e-3
 
@@ -43,15 +44,14 @@ def edge_edge_mollifier_thresholds(x_rest, ee_pairs):
 @njit(cache=True, error_model="numpy")
 def edge_edge_cross_sq(ea0, ea1, eb0, eb1):
     # c = |(ea1 − ea0)×(eb1 − eb0)|²
-    return squared_norm3(cross3(sub3(ea1, ea0), sub3(eb1, eb0)))
+    _, _, n = edge_directions(ea0, ea1, eb0, eb1)
+    return squared_norm3(n)
 
 
 @njit(cache=True, error_model="numpy")
 def edge_edge_cross_sq_gradient(ea0, ea1, eb0, eb1):
     # n = u×v:  ∂c/∂u = 2 v×n,  ∂c/∂v = 2 n×u;   ∂/∂ea0 = −∂/∂u, ∂/∂ea1 = ∂/∂u, same for b, v
-    u = sub3(ea1, ea0)
-    v = sub3(eb1, eb0)
-    n = cross3(u, v)
+    u, v, n = edge_directions(ea0, ea1, eb0, eb1)
     gu = cross3(v, n)
     gv = cross3(n, u)
     g = np.empty(12)
@@ -69,8 +69,7 @@ def edge_edge_cross_sq_hessian(ea0, ea1, eb0, eb1):
     #   ∂²c/∂u² = 2|v|² I − 2 v vᵀ,  ∂²c/∂v² = 2|u|² I − 2 u uᵀ,
     #   ∂²c/∂u∂v = 4 u vᵀ − 2 v uᵀ − 2 (u·v) I
     # then H = Dᵀ H_uv D with u = ea1 − ea0, v = eb1 − eb0 (signs −1, +1 per endpoint)
-    u = sub3(ea1, ea0)
-    v = sub3(eb1, eb0)
+    u, v, _ = edge_directions(ea0, ea1, eb0, eb1)
     uu = dot3(u, u)
     vv = dot3(v, v)
     uv = dot3(u, v)

@@ -23,20 +23,31 @@ from ipcsim.compiler.jit import njit, prange
 
 from ipcsim.kernels.algebra.assembly import block_triplet_indices
 from ipcsim.kernels.contact.broad_phase import swept_pairs_within
-from ipcsim.kernels.contact.barrier import barrier, barrier_and_derivatives
+from ipcsim.kernels.contact.barrier import (
+    BARRIER_IPC,
+    barrier,
+    barrier_and_derivatives,
+    barrier_of_form,
+)
 from ipcsim.kernels.contact.distance import (
     EE_FEATURES,
     PT_FEATURES,
     edge_edge_distance_sq,
-    edge_edge_distance_sq_gradient,
-    edge_edge_distance_sq_hessian,
     edge_edge_distance_type,
+    feature_distance_sq,
+    feature_distance_sq_gradient,
+    feature_distance_sq_hessian,
     point_triangle_distance_sq,
-    point_triangle_distance_sq_gradient,
-    point_triangle_distance_sq_hessian,
     point_triangle_distance_type,
 )
-from ipcsim.kernels.algebra.linalg import ordered_sum, point3, project_psd, project_psd_on_dofs
+from ipcsim.kernels.algebra.linalg import (
+    chain_gradient,
+    chain_hessian,
+    ordered_sum,
+    point3,
+    project_psd,
+    project_psd_on_dofs,
+)
 from ipcsim.kernels.algebra.scatter import scatter_stencil_gradients
 from ipcsim.kernels.contact.mollifier import (
     edge_edge_cross_sq,
@@ -52,51 +63,47 @@ HESSIAN_BLOCK = 144  # triplets per active pair (12 x 12 local Hessian)
 
 
 # =========================================================================================
-# One pair (12-DOF stencil). V holds the pair's four vertices (gather_stencil), dtype its
-# distance type; every function returns 0 / zeros for an inactive pair (d² ≥ ŝ).
+# One stencil. V holds its vertices as a tuple of 3-tuples (gather_stencil), f the row of
+# its closest feature (distance.PT_FEATURES, EE_FEATURES or PE_FEATURES; the edge-edge
+# functions take its distance type); every function returns 0 / zeros for an inactive
+# stencil (d² ≥ ŝ). The barrier b is of ``form`` (barrier.barrier_of_form).
 # =========================================================================================
 
 @njit(cache=True, error_model="numpy")
-def point_triangle_barrier(V, dtype, s_hat, kappa):
+def stencil_barrier(V, f, s_hat, kappa, form):
     # κ b(d²)
-    d = point_triangle_distance_sq(V[0], V[1], V[2], V[3], dtype)
+    d = feature_distance_sq(V, f)
     if d >= s_hat:
         return 0.0
-    return kappa * barrier(d, s_hat)
+    b, _, _ = barrier_of_form(form, d, s_hat)
+    return kappa * b
 
 
 @njit(cache=True, error_model="numpy")
-def point_triangle_barrier_gradient(V, dtype, s_hat, kappa):
+def stencil_barrier_gradient(V, f, s_hat, kappa, form):
     # ∇(κb) = κ b' ∇d
-    d = point_triangle_distance_sq(V[0], V[1], V[2], V[3], dtype)
+    d = feature_distance_sq(V, f)
     if d >= s_hat:
-        return np.zeros(12)
-    g = point_triangle_distance_sq_gradient(V[0], V[1], V[2], V[3], dtype)
-    _, db, _ = barrier_and_derivatives(d, s_hat)
-    for i in range(12):
-        g[i] *= kappa * db
-    return g
+        return np.zeros(3 * len(V))
+    _, db, _ = barrier_of_form(form, d, s_hat)
+    return chain_gradient(feature_distance_sq_gradient(V, f), kappa * db)
 
 
 @njit(cache=True, error_model="numpy")
-def point_triangle_barrier_hessian(V, dtype, s_hat, kappa):
+def stencil_barrier_hessian(V, f, s_hat, kappa, form):
     # ∇²(κb) = κ (b' ∇²d + b'' ∇d ∇dᵀ)
-    d = point_triangle_distance_sq(V[0], V[1], V[2], V[3], dtype)
+    d = feature_distance_sq(V, f)
     if d >= s_hat:
-        return np.zeros((12, 12))
-    _, db, d2b = barrier_and_derivatives(d, s_hat)
-    gd = point_triangle_distance_sq_gradient(V[0], V[1], V[2], V[3], dtype)
-    H = point_triangle_distance_sq_hessian(V[0], V[1], V[2], V[3], dtype)
-    for i in range(12):
-        for j in range(12):
-            H[i, j] = kappa * (db * H[i, j] + d2b * gd[i] * gd[j])
-    return H
+        return np.zeros((3 * len(V), 3 * len(V)))
+    _, db, d2b = barrier_of_form(form, d, s_hat)
+    return chain_hessian(feature_distance_sq_hessian(V, f), feature_distance_sq_gradient(V, f),
+                         db, d2b, kappa)
 
 
 @njit(cache=True, error_model="numpy")
 def edge_edge_barrier(V, dtype, eps_x, s_hat, kappa):
     # κ m b(d²)
-    d = edge_edge_distance_sq(V[0], V[1], V[2], V[3], dtype)
+    d = feature_distance_sq(V, EE_FEATURES[dtype])
     if d >= s_hat:
         return 0.0
     m = mollifier_scalar(edge_edge_cross_sq(V[0], V[1], V[2], V[3]), eps_x)
@@ -106,16 +113,12 @@ def edge_edge_barrier(V, dtype, eps_x, s_hat, kappa):
 @njit(cache=True, error_model="numpy")
 def edge_edge_barrier_gradient(V, dtype, eps_x, s_hat, kappa):
     # ∇(κmb) = κ (m b' ∇d + b ∇m),  ∇m = m'(c) ∇c
-    d = edge_edge_distance_sq(V[0], V[1], V[2], V[3], dtype)
-    if d >= s_hat:
-        return np.zeros(12)
-    b, db, _ = barrier_and_derivatives(d, s_hat)
-    g = edge_edge_distance_sq_gradient(V[0], V[1], V[2], V[3], dtype)
+    f = EE_FEATURES[dtype]
     c = edge_edge_cross_sq(V[0], V[1], V[2], V[3])
     m = mollifier_scalar(c, eps_x)
-    for i in range(12):
-        g[i] *= kappa * m * db
+    g = stencil_barrier_gradient(V, f, s_hat, kappa * m, BARRIER_IPC)  # κ m b' ∇d
     if c < eps_x:  # else m ≡ 1, ∇m = 0
+        b = barrier(feature_distance_sq(V, f), s_hat)
         gc = edge_edge_cross_sq_gradient(V[0], V[1], V[2], V[3])
         dm = mollifier_scalar_first_derivative(c, eps_x)
         for i in range(12):
@@ -127,18 +130,16 @@ def edge_edge_barrier_gradient(V, dtype, eps_x, s_hat, kappa):
 def edge_edge_barrier_hessian(V, dtype, eps_x, s_hat, kappa):
     # ∇²(κmb) = κ [ m (b' ∇²d + b'' ∇d ∇dᵀ) + b ∇²m + b' (∇m ∇dᵀ + ∇d ∇mᵀ) ]
     # ∇m = m' ∇c,  ∇²m = m' ∇²c + m'' ∇c ∇cᵀ   (c = |(ea1 − ea0)×(eb1 − eb0)|²)
-    d = edge_edge_distance_sq(V[0], V[1], V[2], V[3], dtype)
-    if d >= s_hat:
-        return np.zeros((12, 12))
-    b, db, d2b = barrier_and_derivatives(d, s_hat)
-    gd = edge_edge_distance_sq_gradient(V[0], V[1], V[2], V[3], dtype)
-    H = edge_edge_distance_sq_hessian(V[0], V[1], V[2], V[3], dtype)
+    f = EE_FEATURES[dtype]
     c = edge_edge_cross_sq(V[0], V[1], V[2], V[3])
     m = mollifier_scalar(c, eps_x)
-    for i in range(12):
-        for j in range(12):
-            H[i, j] = m * (db * H[i, j] + d2b * gd[i] * gd[j])
+    H = stencil_barrier_hessian(V, f, s_hat, m, BARRIER_IPC)  # m (b' ∇²d + b'' ∇d ∇dᵀ)
+    d = feature_distance_sq(V, f)
+    if d >= s_hat:
+        return H
     if c < eps_x:  # else m ≡ 1 and its derivatives vanish
+        b, db, _ = barrier_and_derivatives(d, s_hat)
+        gd = feature_distance_sq_gradient(V, f)
         gc = edge_edge_cross_sq_gradient(V[0], V[1], V[2], V[3])
         Hc = edge_edge_cross_sq_hessian(V[0], V[1], V[2], V[3])
         dm = mollifier_scalar_first_derivative(c, eps_x)
@@ -183,8 +184,8 @@ def _ee_classify(x, pair):
 @njit(cache=True, error_model="numpy")
 def _pt_value_at(x, pair, s_hat, kappa):
     V = gather_stencil(x, pair)
-    return point_triangle_barrier(V, point_triangle_distance_type(V[0], V[1], V[2], V[3]),
-                                  s_hat, kappa)
+    return stencil_barrier(V, PT_FEATURES[point_triangle_distance_type(V[0], V[1], V[2], V[3])],
+                           s_hat, kappa, BARRIER_IPC)
 
 
 @njit(cache=True, error_model="numpy")
@@ -197,8 +198,9 @@ def _ee_value_at(x, pair, eps_x, s_hat, kappa):
 @njit(cache=True, error_model="numpy")
 def _pt_gradient_at(x, pair, s_hat, kappa):
     V = gather_stencil(x, pair)
-    return point_triangle_barrier_gradient(
-        V, point_triangle_distance_type(V[0], V[1], V[2], V[3]), s_hat, kappa)
+    return stencil_barrier_gradient(
+        V, PT_FEATURES[point_triangle_distance_type(V[0], V[1], V[2], V[3])], s_hat, kappa,
+        BARRIER_IPC)
 
 
 @njit(cache=True, error_model="numpy")
@@ -230,10 +232,10 @@ def project_psd_on_feature(H, feature):
 @njit(cache=True, error_model="numpy")
 def _pt_hessian_into(x, pair, s_hat, kappa, project, vals, base):
     V = gather_stencil(x, pair)
-    t = point_triangle_distance_type(V[0], V[1], V[2], V[3])
-    H = point_triangle_barrier_hessian(V, t, s_hat, kappa)
+    f = PT_FEATURES[point_triangle_distance_type(V[0], V[1], V[2], V[3])]
+    H = stencil_barrier_hessian(V, f, s_hat, kappa, BARRIER_IPC)
     if project:
-        H = project_psd_on_feature(H, PT_FEATURES[t])
+        H = project_psd_on_feature(H, f)
     _write_block(vals, base, H)
 
 

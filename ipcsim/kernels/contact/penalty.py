@@ -33,18 +33,7 @@ from ipcsim.kernels.contact.pair_barrier import (
     project_psd_on_feature,
     write_hessian_block,
 )
-from ipcsim.kernels.contact.distance import (
-    EE_FEATURES,
-    PT_FEATURES,
-    edge_edge_distance_sq,
-    edge_edge_distance_sq_gradient,
-    edge_edge_distance_sq_hessian,
-    edge_edge_distance_type,
-    point_triangle_distance_sq,
-    point_triangle_distance_sq_gradient,
-    point_triangle_distance_sq_hessian,
-    point_triangle_distance_type,
-)
+from ipcsim.kernels.contact import distance as kd
 from ipcsim.kernels.contact.intersection import solid_angle
 from ipcsim.kernels.contact.plane_barrier import (
     normal_gradient,
@@ -52,7 +41,7 @@ from ipcsim.kernels.contact.plane_barrier import (
     plane_distances,
     signed_distance,
 )
-from ipcsim.kernels.algebra.linalg import ordered_sum
+from ipcsim.kernels.algebra.linalg import chain_gradient, chain_hessian, ordered_sum
 from ipcsim.kernels.algebra.scatter import scatter_stencil_gradients
 from ipcsim.compiler.twin import kernel
 
@@ -100,30 +89,26 @@ def _penalty_of_sq(s, dhat, k):
 
 
 @njit(cache=True, error_model="numpy")
-def _pair_derivatives(V, is_pt):
-    """(d², ∇d², ∇²d², closest-feature row) of a gathered (4, 3) stencil."""
+def _closest_feature(V, is_pt):
+    """The closest-feature row (``distance.PT_FEATURES`` / ``EE_FEATURES``) of a gathered
+    stencil."""
     if is_pt:
-        t = point_triangle_distance_type(V[0], V[1], V[2], V[3])
-        return (point_triangle_distance_sq(V[0], V[1], V[2], V[3], t),
-                point_triangle_distance_sq_gradient(V[0], V[1], V[2], V[3], t),
-                point_triangle_distance_sq_hessian(V[0], V[1], V[2], V[3], t),
-                PT_FEATURES[t])
-    t = edge_edge_distance_type(V[0], V[1], V[2], V[3])
-    return (edge_edge_distance_sq(V[0], V[1], V[2], V[3], t),
-            edge_edge_distance_sq_gradient(V[0], V[1], V[2], V[3], t),
-            edge_edge_distance_sq_hessian(V[0], V[1], V[2], V[3], t),
-            EE_FEATURES[t])
+        return kd.PT_FEATURES[kd.point_triangle_distance_type(V[0], V[1], V[2], V[3])]
+    return kd.EE_FEATURES[kd.edge_edge_distance_type(V[0], V[1], V[2], V[3])]
+
+
+@njit(cache=True, error_model="numpy")
+def _pair_derivatives(V, is_pt):
+    """(d², ∇d², ∇²d², closest-feature row) of a gathered stencil."""
+    f = _closest_feature(V, is_pt)
+    return (kd.feature_distance_sq(V, f), kd.feature_distance_sq_gradient(V, f),
+            kd.feature_distance_sq_hessian(V, f), f)
 
 
 @njit(cache=True, error_model="numpy")
 def _pair_value(x, pair, is_pt, dhat, k):
     V = gather_stencil(x, pair)
-    if is_pt:
-        s = point_triangle_distance_sq(V[0], V[1], V[2], V[3],
-                                       point_triangle_distance_type(V[0], V[1], V[2], V[3]))
-    else:
-        s = edge_edge_distance_sq(V[0], V[1], V[2], V[3],
-                                  edge_edge_distance_type(V[0], V[1], V[2], V[3]))
+    s = kd.feature_distance_sq(V, _closest_feature(V, is_pt))
     if s >= dhat * dhat:
         return 0.0
     return _penalty_of_sq(s, dhat, k)[0]
@@ -136,9 +121,7 @@ def _pair_gradient(x, pair, is_pt, dhat, k):
     if s >= dhat * dhat:
         return np.zeros(12)
     _, f1, _ = _penalty_of_sq(s, dhat, k)
-    for i in range(12):
-        g[i] *= f1
-    return g
+    return chain_gradient(g, f1)
 
 
 @njit(cache=True, error_model="numpy")
@@ -146,9 +129,7 @@ def _pair_hessian_into(x, pair, is_pt, dhat, k, project, rows, cols, vals, base)
     # ∇²P = f'(s) ∇²s + f''(s) ∇s ∇sᵀ, projected to PSD on the closest feature's block
     s, g, H, feature = _pair_derivatives(gather_stencil(x, pair), is_pt)
     _, f1, f2 = _penalty_of_sq(s, dhat, k)
-    for i in range(12):
-        for j in range(12):
-            H[i, j] = f1 * H[i, j] + f2 * g[i] * g[j]
+    chain_hessian(H, g, f1, f2, 1.0)
     if project:
         H = project_psd_on_feature(H, feature)
     write_hessian_block(rows, cols, vals, base, pair, H)
@@ -227,6 +208,6 @@ def penetration_depths(x, query, triangles):
         best = np.inf
         for t in range(triangles.shape[0]):
             tri = triangles[t]
-            best = min(best, point_triangle_distance_sq(p, x[tri[0]], x[tri[1]], x[tri[2]]))
+            best = min(best, kd.point_triangle_distance_sq(p, x[tri[0]], x[tri[1]], x[tri[2]]))
         depth[i] = np.sqrt(best)
     return depth

@@ -40,23 +40,18 @@ from ipcsim.compiler.jit import njit, prange
 from ipcsim.kernels.algebra.assembly import block_triplet_indices
 from ipcsim.kernels.algebra.linalg import ordered_sum, point3, project_psd_on_dofs
 from ipcsim.kernels.algebra.scatter import scatter_local_gradients
-from ipcsim.kernels.contact.barrier import barrier_of_form
 from ipcsim.kernels.contact.broad_phase import swept_pairs_within
-from ipcsim.kernels.contact.distance import (
-    PE_FEATURES,
-    point_edge_distance_sq,
-    point_edge_distance_sq_gradient,
-    point_edge_distance_sq_hessian,
-    point_edge_distance_type,
-)
+from ipcsim.kernels.contact import pair_barrier
+from ipcsim.kernels.contact.distance import PE_FEATURES, point_edge_distance_sq
+from ipcsim.kernels.contact.distance import point_edge_distance_type
 from ipcsim.compiler.twin import kernel
 
 PE_HESSIAN_BLOCK = 81  # entries per active pair (9 x 9 local Hessian)
 
 
 # =========================================================================================
-# One stencil. V = (p, e0, e1) as tuples (gather_point_edge), dtype its distance type;
-# every function returns 0 / zeros for an inactive pair (d² ≥ ŝ).
+# One stencil, V = (p, e0, e1) as tuples (gather_point_edge): its barrier is
+# ``pair_barrier.stencil_barrier`` on its closest feature's row of PE_FEATURES.
 # =========================================================================================
 
 @njit(cache=True, error_model="numpy")
@@ -64,44 +59,6 @@ def gather_point_edge(x, pair):
     """The stencil's three vertex positions as a tuple of 3-tuples (values, not views:
     see ``pair_barrier.gather_stencil``)."""
     return point3(x, pair[0]), point3(x, pair[1]), point3(x, pair[2])
-
-
-@njit(cache=True, error_model="numpy")
-def point_edge_barrier(V, dtype, s_hat, kappa, form):
-    # κ b(d²)
-    d = point_edge_distance_sq(V[0], V[1], V[2], dtype)
-    if d >= s_hat:
-        return 0.0
-    b, _, _ = barrier_of_form(form, d, s_hat)
-    return kappa * b
-
-
-@njit(cache=True, error_model="numpy")
-def point_edge_barrier_gradient(V, dtype, s_hat, kappa, form):
-    # ∇(κb) = κ b' ∇d
-    d = point_edge_distance_sq(V[0], V[1], V[2], dtype)
-    if d >= s_hat:
-        return np.zeros(9)
-    g = point_edge_distance_sq_gradient(V[0], V[1], V[2], dtype)
-    _, db, _ = barrier_of_form(form, d, s_hat)
-    for i in range(9):
-        g[i] *= kappa * db
-    return g
-
-
-@njit(cache=True, error_model="numpy")
-def point_edge_barrier_hessian(V, dtype, s_hat, kappa, form):
-    # ∇²(κb) = κ (b' ∇²d + b'' ∇d ∇dᵀ)
-    d = point_edge_distance_sq(V[0], V[1], V[2], dtype)
-    if d >= s_hat:
-        return np.zeros((9, 9))
-    _, db, d2b = barrier_of_form(form, d, s_hat)
-    gd = point_edge_distance_sq_gradient(V[0], V[1], V[2], dtype)
-    H = point_edge_distance_sq_hessian(V[0], V[1], V[2], dtype)
-    for i in range(9):
-        for j in range(9):
-            H[i, j] = kappa * (db * H[i, j] + d2b * gd[i] * gd[j])
-    return H
 
 
 @njit(cache=True, error_model="numpy")
@@ -131,25 +88,25 @@ def _classify(x, pair):
 @njit(cache=True, error_model="numpy")
 def _value_at(x, pair, s_hat, kappa, form):
     V = gather_point_edge(x, pair)
-    return point_edge_barrier(V, point_edge_distance_type(V[0], V[1], V[2]), s_hat, kappa,
-                              form)
+    f = PE_FEATURES[point_edge_distance_type(V[0], V[1], V[2])]
+    return pair_barrier.stencil_barrier(V, f, s_hat, kappa, form)
 
 
 @njit(cache=True, error_model="numpy")
 def _gradient_at(x, pair, s_hat, kappa, form):
     V = gather_point_edge(x, pair)
-    return point_edge_barrier_gradient(V, point_edge_distance_type(V[0], V[1], V[2]),
-                                       s_hat, kappa, form)
+    f = PE_FEATURES[point_edge_distance_type(V[0], V[1], V[2])]
+    return pair_barrier.stencil_barrier_gradient(V, f, s_hat, kappa, form)
 
 
 @njit(cache=True, error_model="numpy")
 def _hessian_into(x, pair, s_hat, kappa, form, project, vals, base):
     # the 9 x 9 block (projected on its closest feature's vertices) at vals[base:base + 81]
     V = gather_point_edge(x, pair)
-    t = point_edge_distance_type(V[0], V[1], V[2])
-    H = point_edge_barrier_hessian(V, t, s_hat, kappa, form)
+    f = PE_FEATURES[point_edge_distance_type(V[0], V[1], V[2])]
+    H = pair_barrier.stencil_barrier_hessian(V, f, s_hat, kappa, form)
     if project:
-        H = project_psd_in_plane(H, PE_FEATURES[t])
+        H = project_psd_in_plane(H, f)
     for r in range(9):
         for c in range(9):
             vals[base + 9 * r + c] = H[r, c]

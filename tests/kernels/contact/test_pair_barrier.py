@@ -20,6 +20,7 @@ from ipcsim.kernels.contact import pair_barrier as CB
 from ipcsim.kernels.contact import distance as D
 from ipcsim.kernels.algebra import linalg as LA
 from ipcsim.kernels.contact import mollifier as M
+from ipcsim.kernels.contact.barrier import BARRIER_IPC as IPC
 from two_bodies import SCENES, boundary_faces, ipctk_scene, surface_edges, two_cubes
 
 
@@ -233,9 +234,9 @@ def test_pair_barrier_product_rule_finite_differences():
         d = D.point_triangle_distance_sq(*V, t)
         if 0.2 * s_hat < d < 0.9 * s_hat and len(seen_pt) < 7 and t not in seen_pt:
             seen_pt.add(t)
-            f = lambda W: CB.point_triangle_barrier(W, t, s_hat, kappa)
-            g = lambda W: CB.point_triangle_barrier_gradient(W, t, s_hat, kappa)
-            Hf = lambda W: CB.point_triangle_barrier_hessian(W, t, s_hat, kappa)
+            f = lambda W: CB.stencil_barrier(W, D.PT_FEATURES[t], s_hat, kappa, IPC)
+            g = lambda W: CB.stencil_barrier_gradient(W, D.PT_FEATURES[t], s_hat, kappa, IPC)
+            Hf = lambda W: CB.stencil_barrier_hessian(W, D.PT_FEATURES[t], s_hat, kappa, IPC)
             assert np.allclose(_pair_fd(f, lambda W: 0.0, V), g(V), rtol=1e-5,
                                atol=1e-6 * np.abs(g(V)).max())
             assert np.allclose(_pair_fd(g, g, V), Hf(V), rtol=1e-5,
@@ -278,8 +279,8 @@ def test_hessian_triplet_layout_and_inactive_pairs():
         assert np.array_equal(cols[sl], np.tile(dof, 12))
         V = np.ascontiguousarray(X[pairs[a]])
         if a < len(pt_act):
-            Hl = CB.point_triangle_barrier_hessian(V, D.point_triangle_distance_type(*V),
-                                                   s_hat, kappa)
+            Hl = CB.stencil_barrier_hessian(V, D.PT_FEATURES[D.point_triangle_distance_type(*V)],
+                                            s_hat, kappa, IPC)
         else:
             Hl = CB.edge_edge_barrier_hessian(V, D.edge_edge_distance_type(*V),
                                               eps_x[ee_act[a - len(pt_act)]], s_hat, kappa)
