@@ -58,7 +58,10 @@ from ipcsim.kernels.contact.distance import (
 from ipcsim.kernels.algebra.linalg import cross3, dot3, ordered_sum, scale3, squared_norm3, sub3
 from ipcsim.kernels.contact.mollifier import edge_edge_cross_sq
 from ipcsim.kernels.algebra.scatter import scatter_local_gradients
-from ipcsim.kernels.contact.plane_barrier import plane_active_count_and_min_distance
+from ipcsim.kernels.contact.plane_barrier import (
+    plane_active_count_and_min_distance,
+    plane_distances,
+)
 from ipcsim.kernels.contact.point_edge_barrier import pe_classify_and_distance
 from ipcsim.compiler.twin import kernel
 
@@ -242,41 +245,48 @@ def lag_point_edge_pairs(x_lag, pe_pairs, weights, s_hat, kappa, form):
 
 
 @njit(cache=True, error_model="numpy")
-def lag_plane_pairs(x_lag, vertices, origins, normals, s_hat, kappa):
-    """Lagged friction data of the active vertex–plane pairs (0 < d, d² < ŝ, with
-    d = n·(x − o) the signed distance; normals unit length).
+def lag_vertex_plane_pairs(vertices, normals, active, lam):
+    """Lagged friction data of the (plane k, vertex j) pairs where active[k, j] (normals
+    unit length), each with normal force lam[k, j].
 
-    Returns (plane (m,) int64, verts (m, 4), coeffs (m, 4), basis (m, 3, 2), lam (m,));
-    the stencil is the vertex alone (r = u_v, the plane does not move), P spans the plane,
-    λ = −κ b'(d², ŝ) 2d."""
-    n_pl = origins.shape[0]
-    nv = vertices.shape[0]
-    d = np.empty((n_pl, nv))
+    Returns (plane (m,) int64, verts (m, 4), coeffs (m, 4), basis (m, 3, 2), lam (m,)); the
+    stencil is the vertex alone (r = u_v, the plane does not move), P spans the plane."""
     count = 0
-    for a in range(n_pl):
-        for b in range(nv):
-            v = vertices[b]
-            d[a, b] = dot3(normals[a], sub3(x_lag[v], origins[a]))
-            if d[a, b] > 0.0 and d[a, b] * d[a, b] < s_hat:
-                count += 1
+    for k in range(active.shape[0]):
+        for j in range(active.shape[1]):
+            count += active[k, j]
     plane = np.empty(count, dtype=np.int64)
     verts = np.full((count, 4), -1, dtype=np.int64)
     coeffs = np.zeros((count, 4))
     basis = np.zeros((count, 3, 2))
-    lam = np.empty(count)
+    lam_out = np.empty(count)
     i = 0
-    for a in range(n_pl):
-        for b in range(nv):
-            da = d[a, b]
-            if not (da > 0.0 and da * da < s_hat):
+    for k in range(active.shape[0]):
+        for j in range(active.shape[1]):
+            if not active[k, j]:
                 continue
-            plane[i] = a
-            verts[i, 0] = vertices[b]
+            plane[i] = k
+            verts[i, 0] = vertices[j]
             coeffs[i, 0] = 1.0
-            basis_from_normal(normals[a], basis[i])
-            lam[i] = -kappa * barrier_first_derivative(da * da, s_hat) * 2.0 * da
+            basis_from_normal(normals[k], basis[i])
+            lam_out[i] = lam[k, j]
             i += 1
-    return plane, verts, coeffs, basis, lam
+    return plane, verts, coeffs, basis, lam_out
+
+
+@njit(cache=True, error_model="numpy")
+def lag_plane_pairs(x_lag, vertices, origins, normals, s_hat, kappa):
+    """``lag_vertex_plane_pairs`` of the active vertex–plane pairs (0 < d, d² < ŝ, with
+    d = n·(x − o) the signed distance), λ = −κ b'(d², ŝ) 2d."""
+    d = plane_distances(x_lag, vertices, origins, normals)
+    active = (d > 0.0) & (d * d < s_hat)
+    lam = np.zeros_like(d)
+    for k in range(d.shape[0]):
+        for j in range(d.shape[1]):
+            if active[k, j]:
+                lam[k, j] = -kappa * barrier_first_derivative(d[k, j] * d[k, j], s_hat) \
+                    * 2.0 * d[k, j]
+    return lag_vertex_plane_pairs(vertices, normals, active, lam)
 
 
 @kernel(error_model="numpy")

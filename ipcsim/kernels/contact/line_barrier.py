@@ -18,25 +18,32 @@ import numpy as np
 
 from ipcsim.compiler.jit import njit
 from ipcsim.kernels.contact.barrier import lecture_barrier_and_derivatives
-from ipcsim.kernels.contact.friction import basis_from_normal
-from ipcsim.kernels.contact.plane_barrier import (
-    normal_gradient,
-    normal_hessian_triplets,
-    plane_distances,
-    signed_distance,
-)
+from ipcsim.kernels.contact.friction import lag_vertex_plane_pairs
+from ipcsim.kernels.contact.plane_barrier import normal_gradient, normal_hessian_triplets
+from ipcsim.kernels.contact.plane_barrier import plane_distances
+
+
+@njit(cache=True)
+def _weighted(d, dhat, weights, order):
+    """w_j b_L⁽ᵒʳᵈᵉʳ⁾(d_kj, d̂) (order 0, 1 or 2) of the pairs within d̂, 0 elsewhere."""
+    c = np.zeros_like(d)
+    for k in range(d.shape[0]):
+        for j in range(d.shape[1]):
+            if d[k, j] < dhat:
+                c[k, j] = weights[j] * lecture_barrier_and_derivatives(d[k, j], dhat)[order]
+    return c
 
 
 @njit(cache=True)
 def line_barrier_value(x, vertices, origins, normals, dhat, weights):
+    d = plane_distances(x, vertices, origins, normals)
+    if (d <= 0.0).any():
+        return np.inf  # on or beyond a line: infeasible
+    terms = _weighted(d, dhat, weights, 0)
     total = 0.0
-    for k in range(origins.shape[0]):
-        for j in range(vertices.shape[0]):
-            d = signed_distance(x, vertices[j], origins[k], normals[k])
-            if d <= 0.0:
-                return np.inf  # on or beyond the line: infeasible
-            if d < dhat:
-                total += weights[j] * lecture_barrier_and_derivatives(d, dhat)[0]
+    for k in range(d.shape[0]):  # in pair order, as the terms were always summed
+        for j in range(d.shape[1]):
+            total += terms[k, j]
     return total
 
 
@@ -44,52 +51,21 @@ def line_barrier_value(x, vertices, origins, normals, dhat, weights):
 def line_barrier_gradient(x, vertices, origins, normals, dhat, weights):
     # ∂B/∂d = w b_L'(d) per active pair
     d = plane_distances(x, vertices, origins, normals)
-    coeff = np.zeros_like(d)
-    for k in range(d.shape[0]):
-        for j in range(d.shape[1]):
-            if d[k, j] < dhat:
-                coeff[k, j] = weights[j] * lecture_barrier_and_derivatives(d[k, j], dhat)[1]
-    return normal_gradient(x.shape[0], vertices, normals, coeff)
+    return normal_gradient(x.shape[0], vertices, normals, _weighted(d, dhat, weights, 1))
 
 
 @njit(cache=True)
 def line_barrier_hessian(x, vertices, origins, normals, dhat, weights):
     """COO triplets, 9 per active pair (PSD: b_L'' > 0)."""
     d = plane_distances(x, vertices, origins, normals)
-    active = d < dhat
-    coeff = np.zeros_like(d)
-    for k in range(d.shape[0]):
-        for j in range(d.shape[1]):
-            if active[k, j]:
-                coeff[k, j] = weights[j] * lecture_barrier_and_derivatives(d[k, j], dhat)[2]
-    return normal_hessian_triplets(vertices, normals, active, coeff)
+    return normal_hessian_triplets(vertices, normals, d < dhat, _weighted(d, dhat, weights, 2))
 
 
 @njit(cache=True)
 def lag_line_pairs(x_lag, vertices, origins, normals, dhat, weights, kappa):
     """Lagged friction data of the active vertex–line pairs (0 < d < d̂), in the layout of
-    ``friction.lag_plane_pairs``: (line (m,), verts (m, 4), coeffs (m, 4), basis (m, 3, 2),
-    λ (m,)), λ = −κ w b_L'(d)."""
+    ``friction.lag_vertex_plane_pairs``: (line (m,), verts (m, 4), coeffs (m, 4), basis
+    (m, 3, 2), λ (m,)), λ = −κ w b_L'(d)."""
     d = plane_distances(x_lag, vertices, origins, normals)
-    count = 0
-    for k in range(d.shape[0]):
-        for j in range(d.shape[1]):
-            if 0.0 < d[k, j] < dhat:
-                count += 1
-    line = np.empty(count, dtype=np.int64)
-    verts = np.full((count, 4), -1, dtype=np.int64)
-    coeffs = np.zeros((count, 4))
-    basis = np.zeros((count, 3, 2))
-    lam = np.empty(count)
-    i = 0
-    for k in range(d.shape[0]):
-        for j in range(d.shape[1]):
-            if not 0.0 < d[k, j] < dhat:
-                continue
-            line[i] = k
-            verts[i, 0] = vertices[j]
-            coeffs[i, 0] = 1.0
-            basis_from_normal(normals[k], basis[i])
-            lam[i] = -kappa * weights[j] * lecture_barrier_and_derivatives(d[k, j], dhat)[1]
-            i += 1
-    return line, verts, coeffs, basis, lam
+    return lag_vertex_plane_pairs(vertices, normals, (d > 0.0) & (d < dhat),
+                                  _weighted(d, dhat, -kappa * weights, 1))
