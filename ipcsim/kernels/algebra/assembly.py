@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from ipcsim.compiler.jit import njit
 
-from ipcsim.kernels.algebra.scatter import local_dof
+from ipcsim.kernels.algebra.scatter import gather_dofs, local_dof
 
 
 @njit(cache=True, inline="always")
@@ -182,9 +182,7 @@ def add_blocks_dense(A, vals, scale, stencils, free_index, p, coupling):
     free = np.empty(nd, np.int64)
     t = 0
     for k in range(stencils.shape[0]):
-        for i in range(nd):
-            dofs[i] = local_dof(stencils, k, i)
-            free[i] = free_index[dofs[i]]
+        gather_dofs(stencils, k, free_index, dofs, free)
         for i in range(nd):
             r = free[i]
             if r < 0:

@@ -84,12 +84,33 @@ def cofactor3(A, C):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def tet_edge_matrix(x, tets, e, D):
-    """D = [x1 − x0, x2 − x0, x3 − x0] (columns) of tet e (vertices tets[e]), into D."""
-    i0 = tets[e, 0]
-    for c in range(3):
-        ic = tets[e, c + 1]
-        for a in range(3):
+def chain_gradient(g, f1):
+    """∇f(s) = f'(s) ∇s for f of a scalar s(x) (a barrier or penalty of d²), in place on
+    g = ∇s (f1 = f'(s), any constant factor folded in)."""
+    for i in range(g.shape[0]):
+        g[i] *= f1
+    return g
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def chain_hessian(H, g, f1, f2, scale):
+    """scale · ∇²f(s) = scale (f'(s) ∇²s + f''(s) ∇s ∇sᵀ), in place on H = ∇²s (g = ∇s,
+    f1 = f', f2 = f'')."""
+    n = g.shape[0]
+    for i in range(n):
+        for j in range(n):
+            H[i, j] = scale * (f1 * H[i, j] + f2 * g[i] * g[j])
+    return H
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def edge_matrix(x, elements, e, D):
+    """D = [x1 − x0, x2 − x0, …] (columns) of simplex e (vertices elements[e]), into D:
+    (3, 3) for a tet, (2, 2) for a triangle (its x, y parts)."""
+    i0 = elements[e, 0]
+    for c in range(D.shape[1]):
+        ic = elements[e, c + 1]
+        for a in range(D.shape[0]):
             D[a, c] = x[ic, a] - x[i0, a]
 
 
@@ -98,14 +119,14 @@ def tet_signed_volumes(x, tets):
     """Signed volumes (m,) of the tets (m, 4) over positions x (n, 3):
     V = det[x1 − x0, x2 − x0, x3 − x0] / 6 (positive for a positively oriented tet).
 
-    The floating-point volume of the package: the same determinant (``tet_edge_matrix``,
+    The floating-point volume of the package: the same determinant (``edge_matrix``,
     ``det3``) as the elastic step bound. Its sign is not exact near zero volume; the exact
     orientation predicate is ``intersection.orient3d``."""
     m = tets.shape[0]
     out = np.empty(m)
     D = np.empty((3, 3))
     for e in range(m):
-        tet_edge_matrix(x, tets, e, D)
+        edge_matrix(x, tets, e, D)
         out[e] = det3(D) / 6.0
     return out
 

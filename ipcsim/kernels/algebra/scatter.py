@@ -19,6 +19,15 @@ def local_dof(stencils, k, i):
     return 3 * stencils[k, i // 3] + i % 3
 
 
+@njit(cache=True, inline="always")
+def gather_dofs(stencils, k, values, dofs, at):
+    """Stencil k's global DOFs into dofs and ``values`` there into at (the stencil's part of
+    a DOF vector, or of a DOF map such as the free DOFs' numbering)."""
+    for i in range(dofs.shape[0]):
+        dofs[i] = local_dof(stencils, k, i)
+        at[i] = values[dofs[i]]
+
+
 @njit(cache=True)
 def add_local_gradients(grad, local, stencils):
     """grad[3 v + a] += local[i, 3 j + a] for v = stencils[i, j] ≥ 0, in place.
@@ -69,9 +78,7 @@ def block_matvec(vals, scale, elements, v):
     v_e = np.empty(nd)
     t = 0
     for e in range(elements.shape[0]):
-        for j in range(nd):
-            dofs[j] = local_dof(elements, e, j)
-            v_e[j] = v[dofs[j]]
+        gather_dofs(elements, e, v, dofs, v_e)
         for i in range(nd):
             total = 0.0
             for j in range(nd):

@@ -53,7 +53,7 @@ from __future__ import annotations
 import numpy as np
 from ipcsim.compiler.jit import njit, prange
 
-from ipcsim.kernels.algebra.linalg import cofactor3, det3, hypot, tet_edge_matrix
+from ipcsim.kernels.algebra.linalg import cofactor3, det3, edge_matrix, hypot, ordered_sum
 from ipcsim.kernels.algebra.scatter import local_dof, scatter_local_gradients
 from ipcsim.compiler.twin import kernel
 
@@ -87,10 +87,34 @@ def _pair(k):
 @njit(cache=True, inline="always")
 def _deformation_gradient(x, tets, Dm_inv, e, Ds, F):
     # F = Ds Dm⁻¹
-    tet_edge_matrix(x, tets, e, Ds)
+    edge_matrix(x, tets, e, Ds)
     for a in range(3):
         for b in range(3):
             F[a, b] = Ds[a, 0] * Dm_inv[e, 0, b] + Ds[a, 1] * Dm_inv[e, 1, b] + Ds[a, 2] * Dm_inv[e, 2, b]
+
+
+@njit(cache=True, inline="always")
+def _jacobi_rotation(zeta):
+    """(c, s, t) of the Jacobi rotation for ζ = (a_qq − a_pp)/(2 a_pq) (of the matrix, or of
+    the Gram matrix of two columns): t = sgn ζ / (|ζ| + √(1 + ζ²)), the smaller root of
+    t² + 2ζt − 1 = 0 (t ≈ 1/(2ζ) once ζ² would overflow), c = 1/√(1 + t²), s = c t."""
+    if abs(zeta) > 1e150:
+        t = 0.5 / zeta
+    else:
+        t = (1.0 if zeta >= 0.0 else -1.0) / (abs(zeta) + np.sqrt(1.0 + zeta * zeta))
+    c = 1.0 / np.sqrt(1.0 + t * t)
+    return c, c * t, t
+
+
+@njit(cache=True, inline="always")
+def _rotate_columns(X, p, q, c, s):
+    # X ← X J for a 3 x 3 X, J the rotation by (c, s) in the (p, q) plane:
+    # columns (x_p, x_q) ← (c x_p − s x_q, s x_p + c x_q)
+    for a in range(3):
+        xp = X[a, p]
+        xq = X[a, q]
+        X[a, p] = c * xp - s * xq
+        X[a, q] = s * xp + c * xq
 
 
 @njit(cache=True, inline="always")
@@ -107,24 +131,11 @@ def _jacobi_orthogonalize(B, V):
             gamma = B[0, p] * B[0, q] + B[1, p] * B[1, q] + B[2, p] * B[2, q]
             if abs(gamma) <= 1e-15 * np.sqrt(alpha * beta):
                 continue
-            # ζ = (β − α)/(2γ), t = sgn ζ / (|ζ| + √(1 + ζ²)) zeroes γ' = cs(α−β) + (c²−s²)γ
-            zeta = (beta - alpha) / (2.0 * gamma)
-            if abs(zeta) > 1e150:
-                t = 0.5 / zeta
-            else:
-                t = (1.0 if zeta >= 0.0 else -1.0) / (abs(zeta) + np.sqrt(1.0 + zeta * zeta))
+            # the rotation zeroes γ' = cs(α−β) + (c²−s²)γ
+            c, sn, t = _jacobi_rotation((beta - alpha) / (2.0 * gamma))
             t_max = max(t_max, abs(t))
-            c = 1.0 / np.sqrt(1.0 + t * t)
-            sn = c * t
-            for a in range(3):
-                bp = B[a, p]
-                bq = B[a, q]
-                B[a, p] = c * bp - sn * bq
-                B[a, q] = sn * bp + c * bq
-                vp = V[a, p]
-                vq = V[a, q]
-                V[a, p] = c * vp - sn * vq
-                V[a, q] = sn * vp + c * vq
+            _rotate_columns(B, p, q, c, sn)
+            _rotate_columns(V, p, q, c, sn)
         if t_max < 1e-9:
             break
 
@@ -220,33 +231,15 @@ def _sym3_eig(A, w, Q, M):
             # negligible next to the diagonal (or exactly 0): skip
             if abs(apq) <= 1e-16 * (abs(M[p, p]) + abs(M[q, q])):
                 continue
-            # θ = (a_qq − a_pp)/(2 a_pq), t = sgn θ/(|θ| + √(θ²+1)) zeroes a_pq
-            theta = (M[q, q] - M[p, p]) / (2.0 * apq)
-            if abs(theta) > 1e150:
-                t = 0.5 / theta
-            else:
-                t = (1.0 if theta >= 0.0 else -1.0) / (abs(theta) + np.sqrt(theta * theta + 1.0))
+            # the rotation zeroes a_pq
+            c, sn, t = _jacobi_rotation((M[q, q] - M[p, p]) / (2.0 * apq))
             t_max = max(t_max, abs(t))
-            c = 1.0 / np.sqrt(t * t + 1.0)
-            sn = t * c
-            # M ← Jᵀ M J with J the rotation in the (p, q) plane
-            for a in range(3):
-                mp = M[a, p]
-                mq = M[a, q]
-                M[a, p] = c * mp - sn * mq
-                M[a, q] = sn * mp + c * mq
-            for a in range(3):
-                mp = M[p, a]
-                mq = M[q, a]
-                M[p, a] = c * mp - sn * mq
-                M[q, a] = sn * mp + c * mq
+            # M ← Jᵀ M J, Q ← Q J
+            _rotate_columns(M, p, q, c, sn)
+            _rotate_columns(M.T, p, q, c, sn)
             M[p, q] = 0.0  # zero by construction; drop the round-off residue
             M[q, p] = 0.0
-            for a in range(3):
-                qp = Q[a, p]
-                qq = Q[a, q]
-                Q[a, p] = c * qp - sn * qq
-                Q[a, q] = sn * qp + c * qq
+            _rotate_columns(Q, p, q, c, sn)
         if t_max < 1e-9:
             break
     w[0] = M[0, 0]
@@ -472,6 +465,14 @@ def _tet_hessian(F, Dm_inv_e, vol, mu, lam, model, project_psd, H, S):
 # --------------------------------------------------------------------------------------
 
 
+@njit(cache=True, inline="always")
+def _chunk_scratch():
+    # a chunk's scratch, allocated once per chunk and not per tet: Ds, F, U, V, B, P
+    # (3 x 3) and s (3,)
+    S = np.empty((7, 3, 3))
+    return S[0], S[1], S[2], S[3], S[4], S[5], S[6, 0]
+
+
 @kernel(parallel=True)
 def elastic_energy_per_tet(x, tets, Dm_inv, volumes, lame, model):
     """E_e = V_rest Ψ(F_e) for every tet, (m,); +∞ for an NH tet with J ≤ 0."""
@@ -479,13 +480,7 @@ def elastic_energy_per_tet(x, tets, Dm_inv, volumes, lame, model):
     out = np.empty(m)
     n_chunks = (m + _CHUNK - 1) // _CHUNK
     for ch in prange(n_chunks):
-        S = np.empty((6, 3, 3))
-        Ds = S[0]
-        F = S[1]
-        U = S[2]
-        V = S[3]
-        B = S[4]
-        s = S[5, 0]
+        Ds, F, U, V, B, _, s = _chunk_scratch()
         for e in range(ch * _CHUNK, min(m, (ch + 1) * _CHUNK)):
             _deformation_gradient(x, tets, Dm_inv, e, Ds, F)
             out[e] = volumes[e] * _psi_from_F(F, lame[e, 0], lame[e, 1], model, U, s, V, B)
@@ -495,11 +490,7 @@ def elastic_energy_per_tet(x, tets, Dm_inv, volumes, lame, model):
 @kernel()
 def elastic_energy(x, tets, Dm_inv, volumes, lame, model):
     """Σₑ V_rest Ψ(Fₑ), summed serially in tet order (deterministic)."""
-    per = elastic_energy_per_tet(x, tets, Dm_inv, volumes, lame, model)
-    total = 0.0
-    for e in range(per.shape[0]):
-        total += per[e]
-    return total
+    return ordered_sum(elastic_energy_per_tet(x, tets, Dm_inv, volumes, lame, model))
 
 
 @kernel(parallel=True)
@@ -510,14 +501,7 @@ def elastic_local_gradients(x, tets, Dm_inv, volumes, lame, model):
     out = np.empty((m, 12))
     n_chunks = (m + _CHUNK - 1) // _CHUNK
     for ch in prange(n_chunks):
-        S = np.empty((7, 3, 3))
-        Ds = S[0]
-        F = S[1]
-        U = S[2]
-        V = S[3]
-        B = S[4]
-        P = S[5]
-        s = S[6, 0]
+        Ds, F, U, V, B, P, s = _chunk_scratch()
         for e in range(ch * _CHUNK, min(m, (ch + 1) * _CHUNK)):
             _deformation_gradient(x, tets, Dm_inv, e, Ds, F)
             if not _first_piola(F, lame[e, 0], lame[e, 1], model, P, U, s, V, B):
@@ -739,8 +723,8 @@ def max_step_per_tet(x, p, tets, min_volume_ratio):
         Dp = S[1]
         C = S[2]
         for e in range(ch * _CHUNK, min(m, (ch + 1) * _CHUNK)):
-            tet_edge_matrix(x, tets, e, Ds)
-            tet_edge_matrix(p, tets, e, Dp)
+            edge_matrix(x, tets, e, Ds)
+            edge_matrix(p, tets, e, Dp)
             # det(Ds + t Dp) = det Dp t³ + ⟨cof Dp, Ds⟩ t² + ⟨cof Ds, Dp⟩ t + det Ds
             d0 = det3(Ds)
             if d0 <= 0.0:

@@ -51,6 +51,7 @@ from __future__ import annotations
 import numpy as np
 from ipcsim.compiler.jit import njit, prange
 
+from ipcsim.kernels.algebra.linalg import edge_matrix, ordered_sum
 from ipcsim.kernels.algebra.scatter import scatter_local_gradients
 from ipcsim.kernels.elasticity.tets import (
     NEO_HOOKEAN,
@@ -73,19 +74,9 @@ _INV_SQRT2 = 1.0 / np.sqrt(2.0)
 
 
 @njit(cache=True, inline="always")
-def _edge_matrix(x, triangles, e, D):
-    # D = [x1 − x0, x2 − x0] (x, y parts, columns) of triangle e
-    i0 = triangles[e, 0]
-    for c in range(2):
-        ic = triangles[e, c + 1]
-        for a in range(2):
-            D[a, c] = x[ic, a] - x[i0, a]
-
-
-@njit(cache=True, inline="always")
 def _deformation_gradient(x, triangles, Dm_inv, e, Ds, F):
     # F = Ds Dm⁻¹
-    _edge_matrix(x, triangles, e, Ds)
+    edge_matrix(x, triangles, e, Ds)
     for a in range(2):
         for b in range(2):
             F[a, b] = Ds[a, 0] * Dm_inv[e, 0, b] + Ds[a, 1] * Dm_inv[e, 1, b]
@@ -283,11 +274,7 @@ def triangle_energy_per_element(x, triangles, Dm_inv, areas, lame, model):
 @kernel()
 def triangle_energy(x, triangles, Dm_inv, areas, lame, model):
     """Σₑ A_rest Ψ(Fₑ), summed serially in triangle order (deterministic)."""
-    per = triangle_energy_per_element(x, triangles, Dm_inv, areas, lame, model)
-    total = 0.0
-    for e in range(per.shape[0]):
-        total += per[e]
-    return total
+    return ordered_sum(triangle_energy_per_element(x, triangles, Dm_inv, areas, lame, model))
 
 
 @kernel(parallel=True)
@@ -409,8 +396,8 @@ def max_step_per_triangle(x, p, triangles, min_area_ratio):
         Ds = S[0]
         Dp = S[1]
         for e in range(ch * _CHUNK, min(m, (ch + 1) * _CHUNK)):
-            _edge_matrix(x, triangles, e, Ds)
-            _edge_matrix(p, triangles, e, Dp)
+            edge_matrix(x, triangles, e, Ds)
+            edge_matrix(p, triangles, e, Dp)
             d0 = _det2(Ds)
             if d0 <= 0.0:
                 out[e] = 0.0
