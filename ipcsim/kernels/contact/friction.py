@@ -322,7 +322,7 @@ def lag_pairs(x_lag, mesh, planes, s_hat, kappa):
 
 @njit(cache=True, error_model="numpy")
 def _tangential(u, verts, coeffs, P):
-    # r = Σ_i c_i u_{v_i};  τ = Pᵀ r  (returns τ0, τ1)
+    # r = Σ_i c_i u_{v_i};  τ = Pᵀ r;  returns τ0, τ1 and the slip y = |τ|
     r0 = 0.0
     r1 = 0.0
     r2 = 0.0
@@ -334,8 +334,9 @@ def _tangential(u, verts, coeffs, P):
         r0 += c * u[v, 0]
         r1 += c * u[v, 1]
         r2 += c * u[v, 2]
-    return (P[0, 0] * r0 + P[1, 0] * r1 + P[2, 0] * r2,
-            P[0, 1] * r0 + P[1, 1] * r1 + P[2, 1] * r2)
+    t0 = P[0, 0] * r0 + P[1, 0] * r1 + P[2, 0] * r2
+    t1 = P[0, 1] * r0 + P[1, 1] * r1 + P[2, 1] * r2
+    return t0, t1, np.sqrt(t0 * t0 + t1 * t1)
 
 
 @kernel(parallel=True, error_model="numpy")
@@ -344,8 +345,7 @@ def friction_value(u, verts, coeffs, basis, weight, eps):
     m = verts.shape[0]
     terms = np.empty(m)
     for k in prange(m):
-        t0, t1 = _tangential(u, verts[k], coeffs[k], basis[k])
-        terms[k] = weight[k] * f0(np.sqrt(t0 * t0 + t1 * t1), eps)
+        terms[k] = weight[k] * f0(_tangential(u, verts[k], coeffs[k], basis[k])[2], eps)
     return ordered_sum(terms)
 
 
@@ -357,8 +357,8 @@ def _local_gradients(u, verts, coeffs, basis, weight, eps):
     G = np.empty((m, 12))
     for k in prange(m):
         P = basis[k]
-        t0, t1 = _tangential(u, verts[k], coeffs[k], P)
-        s = weight[k] * f1_over_y(np.sqrt(t0 * t0 + t1 * t1), eps)
+        t0, t1, y = _tangential(u, verts[k], coeffs[k], P)
+        s = weight[k] * f1_over_y(y, eps)
         for a in range(3):
             f = s * (P[a, 0] * t0 + P[a, 1] * t1)  # the force direction, shared by the stencil
             for i in range(4):
@@ -375,11 +375,10 @@ def friction_gradient(u, verts, coeffs, basis, weight, eps):
 
 
 @njit(cache=True, error_model="numpy")
-def _inner_block(t0, t1, eps, project):
+def _inner_block(t0, t1, y, eps, project):
     """M (2 x 2). Unprojected: (f1/y) I + ((f1' y − f1)/y³) τ τᵀ.
     Projected: max(f1/y, 0) (I − τ̂τ̂ᵀ) + max(f1', 0) τ̂τ̂ᵀ (the same matrix with its
     eigenvalues clamped at 0). At y = 0: (2/ε) I."""
-    y = np.sqrt(t0 * t0 + t1 * t1)
     a = f1_over_y(y, eps)
     M = np.zeros((2, 2))
     if y == 0.0:
@@ -412,8 +411,7 @@ def _inner_block(t0, t1, eps, project):
 @njit(cache=True, error_model="numpy")
 def _hessian_into(u, verts, coeffs, P, w, eps, project, rows, cols, vals, base):
     # K = w P M Pᵀ (3 x 3); block (i, j) = c_i c_j K over the pair's nv stencil vertices
-    t0, t1 = _tangential(u, verts, coeffs, P)
-    M = _inner_block(t0, t1, eps, project)
+    M = _inner_block(*_tangential(u, verts, coeffs, P), eps, project)
     K = np.empty((3, 3))
     for a in range(3):
         for b in range(3):
@@ -493,18 +491,17 @@ def ramp_unresolved(u, p, verts, coeffs, basis, weight, body, eps, fraction):
         b = body[verts[k, 0]]
         capacity[b] += weight[k]
         P = basis[k]
-        t0, t1 = _tangential(u, verts[k], coeffs[k], P)
-        y = np.sqrt(t0 * t0 + t1 * t1)
+        t0, t1, y = _tangential(u, verts[k], coeffs[k], P)
         if y >= eps:
             continue  # sliding: the plain test decides
-        d0, d1 = _tangential(p, verts[k], coeffs[k], P)
+        d0, d1, dy = _tangential(p, verts[k], coeffs[k], P)
         # M d = (f1/y) d + ((f1' y − f1)/y³)(τ·d) τ, and (f1' y − f1)/y³ = −1/(ε² y)
         f1y = f1_over_y(y, eps)
         along = -(t0 * d0 + t1 * d1) / (eps * eps * y) if y > 0.0 else 0.0
         g0 = f1y * (t0 + d0) + along * t0
         g1 = f1y * (t1 + d1) + along * t1
         if g0 * g0 + g1 * g1 >= 1.0:
-            change[b] += weight[k] * np.sqrt(d0 * d0 + d1 * d1)
+            change[b] += weight[k] * dy
     for b in range(n_bodies):
         if change[b] > 0.0 and change[b] >= fraction * eps * capacity[b]:
             return True
