@@ -53,7 +53,14 @@ from __future__ import annotations
 import numpy as np
 from ipcsim.compiler.jit import njit, prange
 
-from ipcsim.kernels.algebra.linalg import cofactor3, det3, edge_matrix, hypot, ordered_sum
+from ipcsim.kernels.algebra.linalg import (
+    cofactor3,
+    det3,
+    edge_matrix,
+    hypot,
+    ordered_sum,
+    symmetrize_from_upper,
+)
 from ipcsim.kernels.algebra.scatter import local_dof, scatter_local_gradients
 from ipcsim.compiler.twin import kernel
 
@@ -365,22 +372,61 @@ def _is_spd3(A):
 
 
 @njit(cache=True, inline="always")
-def _mode_vector(G, g):
-    # g = (∂F/∂x)ᵀ vec(Q) with G = Q Dm⁻ᵀ: vertex c+1 gets column c of G, vertex 0 minus
-    # their sum (F = Σ_c (x_{c+1} − x₀) ⊗ row c of Dm⁻¹)
-    for a in range(3):
-        g[a] = -(G[a, 0] + G[a, 1] + G[a, 2])
-        for c in range(3):
+def mode_vector(G, g):
+    # g = (∂F/∂x)ᵀ vec(Q) with G = Q Dm⁻ᵀ (d x d, d = 3, or 2 for a triangle): vertex c+1
+    # gets column c of G, vertex 0 minus their sum (F = Σ_c (x_{c+1} − x₀) ⊗ row c of
+    # Dm⁻¹); a triangle's z entries 0
+    d = G.shape[0]
+    for a in range(d):
+        total = G[a, 0]
+        for c in range(1, d):
+            total += G[a, c]
+        g[a] = -total
+        for c in range(d):
             g[3 * (c + 1) + a] = G[a, c]
+    for a in range(d, 3):
+        for v in range(d + 1):
+            g[3 * v + a] = 0.0
 
 
 @njit(cache=True, inline="always")
-def _add_mode(H, k, g):
+def add_mode(H, k, g):
     # H += k g gᵀ (upper triangle)
-    for r in range(12):
+    n = g.shape[0]
+    for r in range(n):
         kr = k * g[r]
-        for c in range(r, 12):
+        for c in range(r, n):
             H[r, c] += kr * g[c]
+
+
+@njit(cache=True, inline="always")
+def add_twist_flip(H, U, Wd, i, j, twist, flip, measure, project_psd, G, g):
+    # the twist and flip modes of singular pair (i, j), Q = (uᵢvⱼᵀ ∓ uⱼvᵢᵀ)/√2 with
+    # eigenvalues twist and flip (skipped where ≤ 0 when projecting); Wd[:, j] = Dm⁻¹ vⱼ
+    d = G.shape[0]
+    for mode in range(2):
+        lam_k = twist if mode == 0 else flip
+        if project_psd and lam_k <= 0.0:
+            continue
+        sg = -_INV_SQRT2 if mode == 0 else _INV_SQRT2
+        for a in range(d):
+            for c in range(d):
+                G[a, c] = _INV_SQRT2 * U[a, i] * Wd[c, j] + sg * U[a, j] * Wd[c, i]
+        mode_vector(G, g)
+        add_mode(H, measure * lam_k, g)
+
+
+@njit(cache=True, inline="always")
+def element_gradient(P, Dm_inv_e, measure, G, g):
+    # g = measure (∂F/∂x)ᵀ vec P: G = measure P Dm⁻ᵀ, (P Dm⁻ᵀ)[a, c] = Σ_b P[a, b] Dm⁻¹[c, b]
+    d = G.shape[0]
+    for a in range(d):
+        for c in range(d):
+            total = P[a, 0] * Dm_inv_e[c, 0]
+            for b in range(1, d):
+                total += P[a, b] * Dm_inv_e[c, b]
+            G[a, c] = measure * total
+    mode_vector(G, g)
 
 
 @njit(cache=True)
@@ -427,37 +473,25 @@ def _tet_hessian(F, Dm_inv_e, vol, mu, lam, model, project_psd, H, S):
                     G[a, c] = (
                         Wq[0, k] * U[a, 0] * Wd[c, 0] + Wq[1, k] * U[a, 1] * Wd[c, 1] + Wq[2, k] * U[a, 2] * Wd[c, 2]
                     )
-            _mode_vector(G, g)
-            _add_mode(H, vol * w[k], g)
+            mode_vector(G, g)
+            add_mode(H, vol * w[k], g)
     else:
         # A is already SPD (or no projection asked): Σᵢⱼ Aᵢⱼ gᵢgⱼᵀ with gᵢ the vector of uᵢvᵢᵀ
         for i in range(3):
             for a in range(3):
                 for c in range(3):
                     G[a, c] = U[a, i] * Wd[c, i]
-            _mode_vector(G, gs[i])
+            mode_vector(G, gs[i])
         for r in range(12):
             t0 = vol * (A[0, 0] * gs[0, r] + A[1, 0] * gs[1, r] + A[2, 0] * gs[2, r])
             t1 = vol * (A[0, 1] * gs[0, r] + A[1, 1] * gs[1, r] + A[2, 1] * gs[2, r])
             t2 = vol * (A[0, 2] * gs[0, r] + A[1, 2] * gs[1, r] + A[2, 2] * gs[2, r])
             for c in range(r, 12):
                 H[r, c] += t0 * gs[0, c] + t1 * gs[1, c] + t2 * gs[2, c]
-    # twist / flip modes: Q = (uᵢvⱼᵀ ∓ uⱼvᵢᵀ)/√2
     for k in range(3):
         i, j, _l = _pair(k)
-        for mode in range(2):
-            lam_k = twist[k] if mode == 0 else flip[k]
-            if project_psd and lam_k <= 0.0:
-                continue
-            sg = -_INV_SQRT2 if mode == 0 else _INV_SQRT2
-            for a in range(3):
-                for c in range(3):
-                    G[a, c] = _INV_SQRT2 * U[a, i] * Wd[c, j] + sg * U[a, j] * Wd[c, i]
-            _mode_vector(G, g)
-            _add_mode(H, vol * lam_k, g)
-    for r in range(12):
-        for c in range(r):
-            H[r, c] = H[c, r]
+        add_twist_flip(H, U, Wd, i, j, twist[k], flip[k], vol, project_psd, G, g)
+    symmetrize_from_upper(H)
 
 
 # --------------------------------------------------------------------------------------
@@ -508,15 +542,7 @@ def elastic_local_gradients(x, tets, Dm_inv, volumes, lame, model):
                 for k in range(12):
                     out[e, k] = np.nan
                 continue
-            vol = volumes[e]
-            for a in range(3):
-                tot = 0.0
-                for c in range(3):
-                    # (P Dm⁻ᵀ)[a, c] = Σ_b P[a, b] Dm⁻¹[c, b]
-                    gac = vol * (P[a, 0] * Dm_inv[e, c, 0] + P[a, 1] * Dm_inv[e, c, 1] + P[a, 2] * Dm_inv[e, c, 2])
-                    out[e, 3 * (c + 1) + a] = gac
-                    tot += gac
-                out[e, a] = -tot
+            element_gradient(P, Dm_inv[e], volumes[e], Ds, out[e])  # Ds: free scratch now
     return out
 
 

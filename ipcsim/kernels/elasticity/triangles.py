@@ -51,13 +51,17 @@ from __future__ import annotations
 import numpy as np
 from ipcsim.compiler.jit import njit, prange
 
-from ipcsim.kernels.algebra.linalg import edge_matrix, ordered_sum
+from ipcsim.kernels.algebra.linalg import edge_matrix, ordered_sum, symmetrize_from_upper
 from ipcsim.kernels.algebra.scatter import scatter_local_gradients
 from ipcsim.kernels.elasticity.tets import (
     NEO_HOOKEAN,
+    add_mode,
+    add_twist_flip,
+    element_gradient,
     first_nonpositive,
     fixed_corotated_density,
     fixed_corotated_stress,
+    mode_vector,
     neo_hookean_cofactor_factor,
     neo_hookean_density,
     sigma_hessian,
@@ -65,7 +69,6 @@ from ipcsim.kernels.elasticity.tets import (
 from ipcsim.compiler.twin import kernel
 
 _CHUNK = 256  # triangles per parallel work item; scratch allocated once per chunk
-_INV_SQRT2 = 1.0 / np.sqrt(2.0)
 
 
 # --------------------------------------------------------------------------------------
@@ -149,28 +152,6 @@ def _first_piola(F, mu, lam, model, P, U, s, V):
 
 
 @njit(cache=True, inline="always")
-def _mode_vector(G, g):
-    # g = (∂F/∂x)ᵀ vec(Q), G = Q Dm⁻ᵀ: vertex c+1 gets column c of G, vertex 0 minus their
-    # sum; z entries 0
-    for a in range(2):
-        g[a] = -(G[a, 0] + G[a, 1])
-        g[3 + a] = G[a, 0]
-        g[6 + a] = G[a, 1]
-    g[2] = 0.0
-    g[5] = 0.0
-    g[8] = 0.0
-
-
-@njit(cache=True, inline="always")
-def _add_mode(H, k, g):
-    # H += k g gᵀ (upper triangle)
-    for r in range(9):
-        kr = k * g[r]
-        for c in range(r, 9):
-            H[r, c] += kr * g[c]
-
-
-@njit(cache=True, inline="always")
 def _sym2_eig(A, w, W):
     # A (2 x 2 symmetric) = W diag(w) Wᵀ, by the rotation that zeroes A01
     theta = 0.5 * np.arctan2(2.0 * A[0, 1], A[0, 0] - A[1, 1])
@@ -198,14 +179,14 @@ def _scaling_modes(A, U, Wd, area, project_psd, H, S):
             for a in range(2):
                 for c in range(2):
                     G[a, c] = W[0, k] * U[a, 0] * Wd[c, 0] + W[1, k] * U[a, 1] * Wd[c, 1]
-            _mode_vector(G, g)
-            _add_mode(H, area * w[k], g)
+            mode_vector(G, g)
+            add_mode(H, area * w[k], g)
         return
     for i in range(2):
         for a in range(2):
             for c in range(2):
                 G[a, c] = U[a, i] * Wd[c, i]
-        _mode_vector(G, S[3 + i])
+        mode_vector(G, S[3 + i])
     for r in range(9):
         t0 = area * (A[0, 0] * S[3, r] + A[1, 0] * S[4, r])
         t1 = area * (A[0, 1] * S[3, r] + A[1, 1] * S[4, r])
@@ -237,19 +218,9 @@ def _triangle_hessian(F, Dm_inv_e, area, mu, lam, model, project_psd, H, S):
     _scaling_modes(A[:2, :2], U, Wd, area, project_psd, H, S)
     G = S[0, :4].reshape(2, 2)
     g = S[2]
-    for mode in range(2):  # twist, flip: Q = (u0v1ᵀ ∓ u1v0ᵀ)/√2; pair (0, 1) is k = 0
-        lam_k = twist[0] if mode == 0 else flip[0]
-        if project_psd and lam_k <= 0.0:
-            continue
-        sg = -_INV_SQRT2 if mode == 0 else _INV_SQRT2
-        for a in range(2):
-            for c in range(2):
-                G[a, c] = _INV_SQRT2 * U[a, 0] * Wd[c, 1] + sg * U[a, 1] * Wd[c, 0]
-        _mode_vector(G, g)
-        _add_mode(H, area * lam_k, g)
-    for r in range(9):
-        for c in range(r):
-            H[r, c] = H[c, r]
+    # the one singular pair (0, 1) is k = 0 of sigma_hessian's twist and flip
+    add_twist_flip(H, U, Wd, 0, 1, twist[0], flip[0], area, project_psd, G, g)
+    symmetrize_from_upper(H)
 
 
 # --------------------------------------------------------------------------------------
@@ -292,14 +263,7 @@ def triangle_local_gradients(x, triangles, Dm_inv, areas, lame, model):
             if not _first_piola(S[1], lame[e, 0], lame[e, 1], model, P, S[2], s, S[3]):
                 out[e, :] = np.nan
                 continue
-            for a in range(2):
-                total = 0.0
-                for c in range(2):
-                    # (P Dm⁻ᵀ)[a, c] = Σ_b P[a, b] Dm⁻¹[c, b]
-                    gac = areas[e] * (P[a, 0] * Dm_inv[e, c, 0] + P[a, 1] * Dm_inv[e, c, 1])
-                    out[e, 3 * (c + 1) + a] = gac
-                    total += gac
-                out[e, a] = -total
+            element_gradient(P, Dm_inv[e], areas[e], S[0], out[e])  # S[0]: free scratch now
     return out
 
 
