@@ -140,22 +140,16 @@ def _is_num(v) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
-class _Reader:
-    def __init__(self, text: str, source):
+class KeyedReader:
+    """Typed access to a parsed TOML document (a scene, a study) whose errors name the file
+    and the line of the dotted key (``lines``, from ``locate_keys``)."""
+
+    def __init__(self, source, lines: dict[str, int]):
         self.source = str(source) if source is not None else None
-        self.scene_path = source
-        self.text = text
-        self.lines: dict[str, int] = {}
-        self.warnings: list[str] = []
-        self.dimension = 3
+        self.lines = lines
 
     def fail(self, key: str, message: str):
         raise SceneError(self.source, line_of(self.lines, key), message)
-
-    def warn(self, key: str, message: str) -> None:
-        self.warnings.append(warning_at(self.source, self.lines, key, message))
-
-    # typed access -------------------------------------------------------------------------
 
     def table(self, data, key: str, allowed, required=()) -> dict:
         """``data`` checked to be a table whose keys are all in ``allowed``."""
@@ -169,6 +163,25 @@ class _Reader:
             if k not in data:
                 self.fail(key, f"{key} is missing the required key '{k}'")
         return data
+
+    def boolean(self, v, key: str) -> bool:
+        if not isinstance(v, bool):
+            self.fail(key, f"{key} must be true or false, got {_type_name(v)}")
+        return v
+
+
+class _Reader(KeyedReader):
+    def __init__(self, text: str, source):
+        super().__init__(source, {})
+        self.scene_path = source
+        self.text = text
+        self.warnings: list[str] = []
+        self.dimension = 3
+
+    def warn(self, key: str, message: str) -> None:
+        self.warnings.append(warning_at(self.source, self.lines, key, message))
+
+    # typed access -------------------------------------------------------------------------
 
     def tables(self, data, key: str) -> list:
         if not isinstance(data, list) or not all(isinstance(t, dict) for t in data):
@@ -187,11 +200,6 @@ class _Reader:
     def integer(self, v, key: str) -> int:
         if not isinstance(v, int) or isinstance(v, bool):
             self.fail(key, f"{key} must be an integer, got {_type_name(v)}")
-        return v
-
-    def boolean(self, v, key: str) -> bool:
-        if not isinstance(v, bool):
-            self.fail(key, f"{key} must be true or false, got {_type_name(v)}")
         return v
 
     def string(self, v, key: str) -> str:

@@ -45,9 +45,8 @@ from pathlib import Path
 from msgspec import Struct, field
 
 from ..errors import SceneError, excerpt
-from ..scene.toml_reader import locate_keys
+from ..scene.toml_reader import KeyedReader, locate_keys
 from ..scene.txt_reader import suggest
-from ..scene.validate import line_of
 
 __all__ = ["StudySpec", "Axis", "Record", "Chart", "load_study", "make_study", "SUMMARIES"]
 
@@ -124,30 +123,13 @@ class StudySpec(Struct, frozen=True):
         return out
 
 
-class _Reader:
+class _Reader(KeyedReader):
     def __init__(self, path: Path, text: str):
-        self.path, self.lines = path, locate_keys(text)
-
-    def fail(self, key: str, message: str):
-        raise SceneError(self.path, line_of(self.lines, key), message)
-
-    def table(self, data, key: str, allowed) -> dict:
-        if not isinstance(data, dict):
-            self.fail(key, f"{key} must be a table")
-        for k in data:
-            if k not in allowed:
-                full = f"{key}.{k}" if key else k
-                self.fail(full, f"unknown key {excerpt(full, 80)}{suggest(k, allowed)}")
-        return data
+        super().__init__(path, locate_keys(text))
 
     def number(self, v, key: str) -> float | int:
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
             self.fail(key, f"{key} must be a finite number, got {excerpt(repr(v))}")
-        return v
-
-    def flag(self, v, key: str) -> bool:
-        if not isinstance(v, bool):
-            self.fail(key, f"{key} must be true or false, got {excerpt(repr(v))}")
         return v
 
     def values(self, v, key: str) -> tuple:
@@ -263,8 +245,8 @@ def _record(r: _Reader, data) -> Record:
             s not in SUMMARIES for s in summaries):
         r.fail("record.summaries", f"record.summaries must list some of {', '.join(SUMMARIES)}")
     return Record(tuple(columns), tuple(summaries),
-                  r.flag(t.get("check_frames", False), "record.check_frames"),
-                  r.flag(t.get("final_state", True), "record.final_state"))
+                  r.boolean(t.get("check_frames", False), "record.check_frames"),
+                  r.boolean(t.get("final_state", True), "record.final_state"))
 
 
 def _chart(r: _Reader, data, keys) -> Chart:
@@ -277,8 +259,8 @@ def _chart(r: _Reader, data, keys) -> Chart:
     if not isinstance(y, str):
         r.fail("chart.y", "chart.y must name a study.csv column")
     log_x = t.get("log_x")
-    return Chart(x, y, None if log_x is None else r.flag(log_x, "chart.log_x"),
-                 r.flag(t.get("log_y", False), "chart.log_y"))
+    return Chart(x, y, None if log_x is None else r.boolean(log_x, "chart.log_x"),
+                 r.boolean(t.get("log_y", False), "chart.log_y"))
 
 
 def _overrides(r: _Reader, data, key: str) -> dict:
