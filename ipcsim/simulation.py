@@ -552,9 +552,16 @@ def _initial_stiffness(model, contact: ContactSetup) -> BarrierStiffness:
     kappa_min, kappa_max = kappa_bounds(model.bbox_diagonal, model.dhat,
                                         float(model.mass[tet_vertices].mean()),
                                         model.kappa_min_multiplier)
-    kappa = model.kappa if model.kappa is not None else kappa_min
+    # with adaptive steps κ is κ_max throughout unless the scene fixes it: a κ adapted
+    # per step would change the contact model with h, and the error estimate would
+    # compare different models (solver/step_size.py)
+    adaptive_steps = model.time.tolerance is not None
+    if model.kappa is not None:
+        kappa = model.kappa
+    else:
+        kappa = kappa_max if adaptive_steps else kappa_min
     return BarrierStiffness(kappa, kappa_min, kappa_max, model.dtol ** 2,
-                            adaptive=contact.adaptive_kappa)
+                            adaptive=contact.adaptive_kappa and not adaptive_steps)
 
 
 def _initial_state(model, kappa: float) -> State:

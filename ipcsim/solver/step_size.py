@@ -24,6 +24,11 @@ iteration cap, a failed line search, α ever smaller under CCD) is tried again a
 iterations (a crawl of ever smaller α under CCD ends there, not at the scene's cap of
 thousands: a shorter step costs less than a crawl). Below ``h_min`` the run fails
 instead.
+
+The barrier stiffness κ is κ_max throughout a run with adaptive steps, unless the scene
+fixes κ (``simulation._initial_stiffness``): a κ adapted per step (balanced, doubled)
+changes the contact model with h, the estimate then compares different models, and the
+steps shrink without the error converging.
 """
 
 from __future__ import annotations
