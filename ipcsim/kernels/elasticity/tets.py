@@ -372,11 +372,10 @@ def _is_spd3(A):
 
 
 @njit(cache=True, inline="always")
-def mode_vector(G, g):
+def mode_vector(G, g, d):
     # g = (∂F/∂x)ᵀ vec(Q) with G = Q Dm⁻ᵀ (d x d, d = 3, or 2 for a triangle): vertex c+1
     # gets column c of G, vertex 0 minus their sum (F = Σ_c (x_{c+1} − x₀) ⊗ row c of
-    # Dm⁻¹); a triangle's z entries 0
-    d = G.shape[0]
+    # Dm⁻¹); a triangle's z entries 0. d is a literal at each call: loops of known length
     for a in range(d):
         total = G[a, 0]
         for c in range(1, d):
@@ -390,9 +389,8 @@ def mode_vector(G, g):
 
 
 @njit(cache=True, inline="always")
-def add_mode(H, k, g):
-    # H += k g gᵀ (upper triangle)
-    n = g.shape[0]
+def add_mode(H, k, g, n):
+    # H += k g gᵀ (upper triangle), n = 3 (d + 1) entries
     for r in range(n):
         kr = k * g[r]
         for c in range(r, n):
@@ -400,10 +398,9 @@ def add_mode(H, k, g):
 
 
 @njit(cache=True, inline="always")
-def add_twist_flip(H, U, Wd, i, j, twist, flip, measure, project_psd, G, g):
+def add_twist_flip(H, U, Wd, i, j, twist, flip, measure, project_psd, G, g, d):
     # the twist and flip modes of singular pair (i, j), Q = (uᵢvⱼᵀ ∓ uⱼvᵢᵀ)/√2 with
     # eigenvalues twist and flip (skipped where ≤ 0 when projecting); Wd[:, j] = Dm⁻¹ vⱼ
-    d = G.shape[0]
     for mode in range(2):
         lam_k = twist if mode == 0 else flip
         if project_psd and lam_k <= 0.0:
@@ -412,21 +409,20 @@ def add_twist_flip(H, U, Wd, i, j, twist, flip, measure, project_psd, G, g):
         for a in range(d):
             for c in range(d):
                 G[a, c] = _INV_SQRT2 * U[a, i] * Wd[c, j] + sg * U[a, j] * Wd[c, i]
-        mode_vector(G, g)
-        add_mode(H, measure * lam_k, g)
+        mode_vector(G, g, d)
+        add_mode(H, measure * lam_k, g, 3 * (d + 1))
 
 
 @njit(cache=True, inline="always")
-def element_gradient(P, Dm_inv_e, measure, G, g):
+def element_gradient(P, Dm_inv_e, measure, G, g, d):
     # g = measure (∂F/∂x)ᵀ vec P: G = measure P Dm⁻ᵀ, (P Dm⁻ᵀ)[a, c] = Σ_b P[a, b] Dm⁻¹[c, b]
-    d = G.shape[0]
     for a in range(d):
         for c in range(d):
             total = P[a, 0] * Dm_inv_e[c, 0]
             for b in range(1, d):
                 total += P[a, b] * Dm_inv_e[c, b]
             G[a, c] = measure * total
-    mode_vector(G, g)
+    mode_vector(G, g, d)
 
 
 @njit(cache=True)
@@ -473,15 +469,15 @@ def _tet_hessian(F, Dm_inv_e, vol, mu, lam, model, project_psd, H, S):
                     G[a, c] = (
                         Wq[0, k] * U[a, 0] * Wd[c, 0] + Wq[1, k] * U[a, 1] * Wd[c, 1] + Wq[2, k] * U[a, 2] * Wd[c, 2]
                     )
-            mode_vector(G, g)
-            add_mode(H, vol * w[k], g)
+            mode_vector(G, g, 3)
+            add_mode(H, vol * w[k], g, 12)
     else:
         # A is already SPD (or no projection asked): Σᵢⱼ Aᵢⱼ gᵢgⱼᵀ with gᵢ the vector of uᵢvᵢᵀ
         for i in range(3):
             for a in range(3):
                 for c in range(3):
                     G[a, c] = U[a, i] * Wd[c, i]
-            mode_vector(G, gs[i])
+            mode_vector(G, gs[i], 3)
         for r in range(12):
             t0 = vol * (A[0, 0] * gs[0, r] + A[1, 0] * gs[1, r] + A[2, 0] * gs[2, r])
             t1 = vol * (A[0, 1] * gs[0, r] + A[1, 1] * gs[1, r] + A[2, 1] * gs[2, r])
@@ -490,7 +486,7 @@ def _tet_hessian(F, Dm_inv_e, vol, mu, lam, model, project_psd, H, S):
                 H[r, c] += t0 * gs[0, c] + t1 * gs[1, c] + t2 * gs[2, c]
     for k in range(3):
         i, j, _l = _pair(k)
-        add_twist_flip(H, U, Wd, i, j, twist[k], flip[k], vol, project_psd, G, g)
+        add_twist_flip(H, U, Wd, i, j, twist[k], flip[k], vol, project_psd, G, g, 3)
     symmetrize_from_upper(H)
 
 
@@ -542,7 +538,7 @@ def elastic_local_gradients(x, tets, Dm_inv, volumes, lame, model):
                 for k in range(12):
                     out[e, k] = np.nan
                 continue
-            element_gradient(P, Dm_inv[e], volumes[e], Ds, out[e])  # Ds: free scratch now
+            element_gradient(P, Dm_inv[e], volumes[e], Ds, out[e], 3)  # Ds: free scratch now
     return out
 
 

@@ -179,14 +179,14 @@ def _scaling_modes(A, U, Wd, area, project_psd, H, S):
             for a in range(2):
                 for c in range(2):
                     G[a, c] = W[0, k] * U[a, 0] * Wd[c, 0] + W[1, k] * U[a, 1] * Wd[c, 1]
-            mode_vector(G, g)
-            add_mode(H, area * w[k], g)
+            mode_vector(G, g, 2)
+            add_mode(H, area * w[k], g, 9)
         return
     for i in range(2):
         for a in range(2):
             for c in range(2):
                 G[a, c] = U[a, i] * Wd[c, i]
-        mode_vector(G, S[3 + i])
+        mode_vector(G, S[3 + i], 2)
     for r in range(9):
         t0 = area * (A[0, 0] * S[3, r] + A[1, 0] * S[4, r])
         t1 = area * (A[0, 1] * S[3, r] + A[1, 1] * S[4, r])
@@ -219,7 +219,7 @@ def _triangle_hessian(F, Dm_inv_e, area, mu, lam, model, project_psd, H, S):
     G = S[0, :4].reshape(2, 2)
     g = S[2]
     # the one singular pair (0, 1) is k = 0 of sigma_hessian's twist and flip
-    add_twist_flip(H, U, Wd, 0, 1, twist[0], flip[0], area, project_psd, G, g)
+    add_twist_flip(H, U, Wd, 0, 1, twist[0], flip[0], area, project_psd, G, g, 2)
     symmetrize_from_upper(H)
 
 
@@ -263,7 +263,7 @@ def triangle_local_gradients(x, triangles, Dm_inv, areas, lame, model):
             if not _first_piola(S[1], lame[e, 0], lame[e, 1], model, P, S[2], s, S[3]):
                 out[e, :] = np.nan
                 continue
-            element_gradient(P, Dm_inv[e], areas[e], S[0], out[e])  # S[0]: free scratch now
+            element_gradient(P, Dm_inv[e], areas[e], S[0], out[e], 2)  # S[0]: free scratch now
     return out
 
 
