@@ -40,6 +40,8 @@ SCENES = [
     f"{EXAMPLES}/paperExamples/2_matKnives.txt@15",
     f"{EXAMPLES}/paperExamples/21_scalability/mat40x40_twist.txt@3",
     f"{EXAMPLES}/paperExamples/tb1_diffDt/rodsTwist_E1e4_dt0.1.txt@8",
+    # its large steps pull prescribed vertices (boundary_pull.py)
+    f"{EXAMPLES}/paperExamples/tb1_diffDt/rodsTwist_E1e4_dt0.2.txt",
     f"{EXAMPLES}/paperExamples/20_pencilStickSlip.txt@20",
     f"{EXAMPLES}/otherExamples/barTwist_noCollisions.txt@3",
 ]

@@ -17,6 +17,7 @@ from typing import ClassVar
 import numpy as np
 import pytest
 from examples import IPC_EXAMPLES
+from generated import write_box_msh
 
 from ipcsim.compiler import aot
 
@@ -285,14 +286,10 @@ SCENES = [("input/two_cubes_fall.txt", 40),
           (IPC_EXAMPLES / "input" / "tutorialExamples" / "2cubesFall.txt", None)]
 
 
-@needs_compiled
-@pytest.mark.parametrize("scene, steps", SCENES, ids=["hello world", "2cubesFall"])
-def test_the_example_scenes_run_without_numba(scene, steps, tmp_path):
-    """Every kernel call of these runs (contact, friction, the initial and the frames'
-    intersection checks) has its compiled variant: numba is never imported. Nor is
-    scipy.sparse: the Newton matrix is ipcsim's own CSC (solver/assembly.CscMatrix)."""
-    if not os.path.exists(scene):
-        pytest.skip("the original's examples are not beside the project")
+def _runs_without_numba(scene, steps, tmp_path) -> None:
+    """Every kernel call of the run (and of the frames' intersection checks) has its
+    compiled variant: numba is never imported. Nor is scipy.sparse: the Newton matrix is
+    ipcsim's own CSC (solver/assembly.CscMatrix)."""
     code = ("import sys, ipcsim\n"
             "from ipcsim.contact.frame_check import check_frames\n"
             f"ipcsim.run(ipcsim.load_scene({str(scene)!r}), {str(tmp_path)!r}, "
@@ -307,6 +304,32 @@ def test_the_example_scenes_run_without_numba(scene, steps, tmp_path):
     info = json.loads((tmp_path / "run.json").read_text())
     assert info["kernels"] == {"compiled_ahead_of_time": True, "run_by_numba": [],
                                "numba_compile_s": 0.0}
+
+
+@needs_compiled
+@pytest.mark.parametrize("scene, steps", SCENES, ids=["hello world", "2cubesFall"])
+def test_the_example_scenes_run_without_numba(scene, steps, tmp_path):
+    """Contact, friction, the initial and the frames' intersection checks."""
+    if not os.path.exists(scene):
+        pytest.skip("the original's examples are not beside the project")
+    _runs_without_numba(scene, steps, tmp_path / "out")
+
+
+@needs_compiled
+def test_a_run_that_pulls_prescribed_vertices_runs_without_numba(tmp_path):
+    """A cube's top face driven down onto another cube: each step's first iteration is
+    cut short by the contact, and the prescribed vertices are pulled to their targets
+    (potentials/boundary_pull.py), whose Hessian is a kernel of its own. Without its
+    compiled variant numba was imported mid-run: about 120 MB more peak memory on the
+    paper's tb1 rods and pencil."""
+    cube = write_box_msh(tmp_path / "cube.msh", cells=(3, 3, 3))
+    scene = tmp_path / "press.txt"
+    scene.write_text(
+        "shapes input 2\n"
+        f"{cube.name} 0 0.205 0  0 0 0  1 1 1  DBC -0.1 0.9 -0.1  1.1 1.1 1.1  0 -0.6 0  0 0 0\n"
+        f"{cube.name} 0 0 0  0 0 0  1 1 1  DBC -0.1 -0.1 -0.1  1.1 1.1 1.1  0 0 0  0 0 0\n"
+        "time 0.15 0.05\nstiffness 1e5 0.4\nturnOffGravity\n")
+    _runs_without_numba(scene, None, tmp_path / "out")
 
 
 @needs_compiled
