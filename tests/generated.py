@@ -15,6 +15,22 @@ def write_box_msh(path, cells=(2, 2, 2), size=(0.2, 0.2, 0.2), base_y=0.0) -> Pa
     return write_msh(Path(path), points, tets)
 
 
+
+def write_press_scene(folder) -> Path:
+    """A cube whose top face is driven down at 0.6 m/s onto a fixed cube just below it
+    (h = 0.05 s, no gravity): each step's first iteration is cut short by the contact, so
+    the prescribed vertices are pulled to their targets (potentials/boundary_pull.py).
+    Writes cube.msh and press.txt into ``folder``; returns the scene's path."""
+    folder = Path(folder)
+    cube = write_box_msh(folder / "cube.msh", cells=(3, 3, 3))
+    scene = folder / "press.txt"
+    scene.write_text(
+        "shapes input 2\n"
+        f"{cube.name} 0 0.205 0  0 0 0  1 1 1  DBC -0.1 0.9 -0.1  1.1 1.1 1.1  0 -0.6 0  0 0 0\n"
+        f"{cube.name} 0 0 0  0 0 0  1 1 1  DBC -0.1 -0.1 -0.1  1.1 1.1 1.1  0 0 0  0 0 0\n"
+        "time 0.15 0.05\nstiffness 1e5 0.4\nturnOffGravity\n")
+    return scene
+
 def modules_a_run_imports(scene, out, *args: str) -> tuple[int, set[str]]:
     """Run ``ipcsim run scene -o out -q *args`` in a fresh interpreter: its exit status
     and every module it imported (for the tests that keep imports out of a small scene's

@@ -17,7 +17,7 @@ from typing import ClassVar
 import numpy as np
 import pytest
 from examples import IPC_EXAMPLES
-from generated import write_box_msh
+from generated import write_press_scene
 
 from ipcsim.compiler import aot
 
@@ -286,22 +286,22 @@ SCENES = [("input/two_cubes_fall.txt", 40),
           (IPC_EXAMPLES / "input" / "tutorialExamples" / "2cubesFall.txt", None)]
 
 
-def _runs_without_numba(scene, steps, tmp_path) -> None:
+def _runs_without_numba(scene, steps, out) -> None:
     """Every kernel call of the run (and of the frames' intersection checks) has its
     compiled variant: numba is never imported. Nor is scipy.sparse: the Newton matrix is
     ipcsim's own CSC (solver/assembly.CscMatrix)."""
     code = ("import sys, ipcsim\n"
             "from ipcsim.contact.frame_check import check_frames\n"
-            f"ipcsim.run(ipcsim.load_scene({str(scene)!r}), {str(tmp_path)!r}, "
+            f"ipcsim.run(ipcsim.load_scene({str(scene)!r}), {str(out)!r}, "
             f"steps={steps}, mode='overwrite')\n"
-            f"check_frames(__import__('pathlib').Path({str(tmp_path)!r}), out=sys.stderr)\n"
+            f"check_frames(__import__('pathlib').Path({str(out)!r}), out=sys.stderr)\n"
             "from ipcsim.compiler import aot\n"
             "print(aot.jit_kernels(), 'numba' in sys.modules, 'scipy.sparse' in sys.modules)\n")
     env = {k: v for k, v in os.environ.items() if k not in ("IPCSIM_AOT", "IPCSIM_THREADS")}
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         env=env, check=True).stdout.strip().splitlines()[-1]
-    assert out == "[] False False"
-    info = json.loads((tmp_path / "run.json").read_text())
+    printed = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                             env=env, check=True).stdout.strip().splitlines()[-1]
+    assert printed == "[] False False"
+    info = json.loads((out / "run.json").read_text())
     assert info["kernels"] == {"compiled_ahead_of_time": True, "run_by_numba": [],
                                "numba_compile_s": 0.0}
 
@@ -322,13 +322,7 @@ def test_a_run_that_pulls_prescribed_vertices_runs_without_numba(tmp_path):
     (potentials/boundary_pull.py), whose Hessian is a kernel of its own. Without its
     compiled variant numba was imported mid-run: about 120 MB more peak memory on the
     paper's tb1 rods and pencil."""
-    cube = write_box_msh(tmp_path / "cube.msh", cells=(3, 3, 3))
-    scene = tmp_path / "press.txt"
-    scene.write_text(
-        "shapes input 2\n"
-        f"{cube.name} 0 0.205 0  0 0 0  1 1 1  DBC -0.1 0.9 -0.1  1.1 1.1 1.1  0 -0.6 0  0 0 0\n"
-        f"{cube.name} 0 0 0  0 0 0  1 1 1  DBC -0.1 -0.1 -0.1  1.1 1.1 1.1  0 0 0  0 0 0\n"
-        "time 0.15 0.05\nstiffness 1e5 0.4\nturnOffGravity\n")
+    scene = write_press_scene(tmp_path)
     _runs_without_numba(scene, None, tmp_path / "out")
 
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from generated import write_box_msh
+from generated import write_press_scene
 
 from ipcsim.contact.intersection import find_intersections
 from ipcsim.kernels.algebra.linalg import tet_signed_volumes
@@ -120,17 +120,9 @@ def test_the_schedules_tail_is_a_small_step_from_99_percent_until_done():
 
 @pytest.fixture(scope="module")
 def press_scene(tmp_path_factory):
-    """A cube whose top face is driven down at 0.6 m/s onto a fixed cube just below it:
-    with h = 0.05 s each step's first iteration is cut short by the contact."""
-    folder = tmp_path_factory.mktemp("press")
-    cube = write_box_msh(folder / "cube.msh", cells=(3, 3, 3))
-    scene = folder / "press.txt"
-    scene.write_text(
-        "shapes input 2\n"
-        f"{cube.name} 0 0.205 0  0 0 0  1 1 1  DBC -0.1 0.9 -0.1  1.1 1.1 1.1  0 -0.6 0  0 0 0\n"
-        f"{cube.name} 0 0 0  0 0 0  1 1 1  DBC -0.1 -0.1 -0.1  1.1 1.1 1.1  0 0 0  0 0 0\n"
-        "time 0.15 0.05\nstiffness 1e5 0.4\nturnOffGravity\n")
-    return scene
+    """``generated.write_press_scene``: each step's first iteration is cut short by the
+    contact."""
+    return write_press_scene(tmp_path_factory.mktemp("press"))
 
 
 def test_a_step_that_cannot_finish_its_prescribed_motion_at_once_pulls_the_vertices(
