@@ -101,3 +101,26 @@ def test_smoke_with_both_programs(tmp_path, capsys):
     for program in ("original", "ipcsim"):
         _check_program(rows, program)
     assert "original's references h = 0.0125 and 0.00625 s differ by" in printed
+
+
+def test_tolerances_add_adaptive_runs_judged_against_three_tau(tmp_path):
+    assert acc.parse_args(["--tolerances", "1e-2,1e-3"]).tolerances == (1e-2, 1e-3)
+    for bad in ("1e-2,x", "0", "2"):
+        with pytest.raises(SystemExit):
+            acc.parse_args(["--tolerances", bad])
+    tau = acc.Variant("ipcsim", "BDF2", 1e-3)
+    assert tau.lines() == ("timeIntegration BDF2", "timeTolerance 0.001")
+    (tmp_path / "scripts").mkdir()
+    runs = acc.plan(acc.SMOKE, "", [acc.Variant("ipcsim", "BE"), tau], tmp_path, tmp_path)
+    adaptive = [m for m in runs if m.variant == tau]
+    assert [m.h for m in adaptive] == [acc.SMOKE.default_h]  # once, from the scene's h
+
+    def judged(error, resolved):
+        m = acc.Measured("s", tau, 0.025, "ladder", tmp_path, tmp_path,
+                         runs=[vo.Run(rc=0, wall_s=1.0, peak_mb=None)],
+                         error=error, resolved=resolved)
+        (line,) = acc.tolerance_lines([m])
+        return line
+    assert judged(2.9e-3, True).endswith("(≤ 3 τ: met)")
+    assert judged(3.1e-3, True).endswith("(≤ 3 τ: NOT met)")
+    assert "unresolved" in judged(1e-3, False)
