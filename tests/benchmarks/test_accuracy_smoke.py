@@ -124,3 +124,11 @@ def test_tolerances_add_adaptive_runs_judged_against_three_tau(tmp_path):
     assert judged(2.9e-3, True).endswith("(≤ 3 τ: met)")
     assert judged(3.1e-3, True).endswith("(≤ 3 τ: NOT met)")
     assert "unresolved" in judged(1e-3, False)
+
+
+def test_references_by_newmark_only_without_contact():
+    by_name = {sc.name: sc for sc in acc.SCENES}
+    assert by_name["spinning_bar"].reference_integrator("ipcsim") == "NM"
+    assert by_name["two_cubes"].reference_integrator("ipcsim") == "BDF2"
+    assert all(sc.reference_integrator("original") == "NM" for sc in acc.SCENES)
+    assert [sc.name for sc in acc.SCENES if sc.contact_free] == ["spinning_bar"]
