@@ -74,10 +74,14 @@ class MeshError(SceneError):
 class SolverError(IpcsimError):
     """The simulation itself failed (NaN, infinite energy, no feasible step). ``label``
     names the kind of failure where a benchmark tells them apart (the SQP / QP baselines:
-    "Blow-up", "QP failure"); None otherwise."""
+    "Blow-up", "QP failure"); None otherwise. With adaptive steps ``attempts`` and
+    ``newton`` hold the failed step's steps.csv and newton.csv rows, so that the logs
+    show how its steps shrank."""
 
     exit_status = 3
     label: str | None = None
+    attempts: tuple[dict, ...] = ()
+    newton: tuple[dict, ...] = ()
 
     def __init__(self, message: str = "", label: str | None = None):
         super().__init__(message)

@@ -365,8 +365,13 @@ def _simulate(run: _Run) -> tuple[int, str | None, str | None]:
         try:
             _step_loop(run, step_log, newton_log, progress, stop)
         except SolverError as exc:
-            return exc.exit_status, str(exc), (f"{exc}; frames and logs up to the last "
-                                               "completed step are kept")
+            step_log.append_rows(exc.attempts)  # the failed step's attempts, if adaptive
+            newton_log.append_rows(exc.newton)
+            tried = len(exc.attempts)
+            return exc.exit_status, str(exc), (
+                f"{exc}; frames and logs up to the last completed step are kept"
+                + (f"; steps.csv ends with its {tried} attempt{'s' * (tried > 1)}"
+                   if tried else ""))
         except KeyboardInterrupt:
             return _interrupted(run)
         except Exception:

@@ -216,7 +216,9 @@ class Simulation:
             raise
         except SolverError as exc:
             self.outcome = exc.label or "failed"
-            raise SolverError(f"step {number}: {exc}", label=exc.label) from None
+            numbered = SolverError(f"step {number}: {exc}", label=exc.label)
+            numbered.attempts, numbered.newton = exc.attempts, exc.newton
+            raise numbered from None
         try:
             self._check_energy(report.row)
         except SolverError:
@@ -265,13 +267,6 @@ class Simulation:
                 accepted, h_next = control.judge(h, error, integrator.order, retry)
             else:
                 accepted, h_next = False, control.stalled(h)
-            if h_next < control.h_min:
-                if isinstance(stalled, NonFiniteError):
-                    raise stalled
-                why = stalled or f"the error estimate stayed above the tolerance ({error:.3g})"
-                raise SolverError(f"at t = {before.time:.9g} s the adaptive step fell below "
-                                  f"{control.h_min:.3g} s ({why}); raise the time tolerance "
-                                  "or lower dt")
             if after is None:  # non-finite values: a row of what is known
                 reports.append(StepReport(
                     {"step": number, "time": before.time + h, "dt": h, "converged": 0,
@@ -279,6 +274,14 @@ class Simulation:
             else:
                 reports.append(self._report(result, lags, wall0, integrator, before, after,
                                             accepted, number))
+            if h_next < control.h_min:
+                why = stalled or f"the error estimate stayed above the tolerance ({error:.3g})"
+                failure = stalled if isinstance(stalled, NonFiniteError) else SolverError(
+                    f"at t = {before.time:.9g} s the adaptive step fell below "
+                    f"{control.h_min:.3g} s ({why}); raise the time tolerance or lower dt")
+                failure.attempts = tuple(r.row for r in reports)
+                failure.newton = tuple(row for r in reports for row in r.newton)
+                raise failure
             retry = not accepted
             if not accepted:
                 self.state = replace(before, h_next=h_next, rejected=before.rejected + 1)

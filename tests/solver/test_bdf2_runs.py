@@ -157,3 +157,38 @@ def test_a_step_over_the_newton_budget_is_tried_again_shorter():
         assert r["newton_iterations"] == 2 and r["hit_iteration_cap"] and not r["accepted"]
         assert after["dt"] <= 0.25 * r["dt"] * (1 + 1e-12)
     assert all(r["newton_iterations"] <= 2 for r in rows)
+
+
+def test_a_step_that_cannot_meet_the_tolerance_fails_and_logs_its_attempts(tmp_path,
+                                                                          monkeypatch):
+    """A step that shrinks below h_min stops the run (exit 3) with the time and the cause;
+    steps.csv and newton.csv keep every attempt of that step, after the completed ones."""
+    import csv
+
+    from ipcsim.errors import RunFailed
+    from ipcsim.runner import run
+    from ipcsim.solver import step_size
+
+    overrides = {"integrator.type": "BDF2", "time.duration": 0.1, "time.tolerance": 1e-6}
+    sim = Simulation(build_model(load_scene(BAR, overrides=overrides)))
+    sim.control = replace(sim.control, h_min_ratio=0.5)  # the first step's h only
+    with pytest.raises(SolverError, match=r"^step 1: at t = 0 s the adaptive step fell "
+                       r"below 0\.0125 s \(the error estimate stayed above the tolerance"
+                       ) as failed:
+        sim.step()  # BE's first step at dt, rejected; 0.2 dt would be below h_min
+    (row,) = failed.value.attempts
+    assert row["accepted"] == 0 and row["dt"] == 0.025 and failed.value.newton
+    monkeypatch.setattr(step_size.StepSizeControl, "h_min",
+                        property(lambda self: 0.5 * self.h_max))
+    with pytest.raises(RunFailed, match="steps.csv ends with its 1 attempt"):
+        run(load_scene(BAR, overrides=overrides), tmp_path / "out")
+    with open(tmp_path / "out" / "steps.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [(r["step"], r["accepted"], float(r["dt"])) for r in rows] == [("1", "0", 0.025)]
+    assert float(rows[0]["error_estimate"]) > 1e-6 * 0.025 / 0.1
+    with open(tmp_path / "out" / "newton.csv", newline="") as f:
+        assert {r["step"] for r in csv.DictReader(f)} == {"1"}
+    with pytest.raises(RunFailed):  # resumed, it fails again: the old attempt is dropped
+        run(load_scene(BAR, overrides=overrides), tmp_path / "out", mode="resume")
+    with open(tmp_path / "out" / "steps.csv", newline="") as f:
+        assert len(list(csv.DictReader(f))) == 1
