@@ -279,8 +279,8 @@ class Simulation:
                 failure = stalled if isinstance(stalled, NonFiniteError) else SolverError(
                     f"at t = {before.time:.9g} s the adaptive step fell below "
                     f"{control.h_min:.3g} s ({why}); raise the time tolerance or lower dt")
-                failure.attempts = tuple(r.row for r in reports)
-                failure.newton = tuple(row for r in reports for row in r.newton)
+                tried = _one_report(reports)
+                failure.attempts, failure.newton = tried.rows, tried.newton
                 raise failure
             retry = not accepted
             if not accepted:
@@ -289,8 +289,7 @@ class Simulation:
             self.state = replace(after, h_next=h_next)
             self._collisions_at = _kept(result)
             if lands:
-                return replace(reports[-1], attempts=tuple(r.row for r in reports[:-1]),
-                               newton=tuple(row for r in reports for row in r.newton))
+                return _one_report(reports)
 
     def _attempt(self, before: State, h: float, t_end: float, number: int):
         """A step of length h from ``before``, ending at t_end with ``number`` steps of dt
@@ -544,6 +543,13 @@ def _kept(result: NewtonResult):
     if point.collisions is None:
         return None
     return point.x, point.collisions.in_canonical_order()
+
+
+def _one_report(reports: list[StepReport]) -> StepReport:
+    """The attempts of one step of dt as one report: the last's, the others' rows before
+    it, every attempt's Newton rows."""
+    return replace(reports[-1], attempts=tuple(r.row for r in reports[:-1]),
+                   newton=tuple(row for r in reports for row in r.newton))
 
 
 # -- the start of a run ---------------------------------------------------------------------
