@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import shutil
+from pathlib import Path
 
 import meshio
 import pytest
@@ -65,6 +66,25 @@ def test_different_log_counts_are_named(runs, tmp_path, capsys):
     (p / "steps.csv").write_text("\n".join(lines) + "\n")
     assert main(["compare", str(a), str(p)]) == 1
     assert "step 2: newton_iterations" in capsys.readouterr().out
+
+
+def test_adaptive_runs_with_different_steps_compare_by_their_frames(tmp_path, capsys):
+    """Adaptive runs at two tolerances land on the same frames by different steps: their
+    frames are compared, their logs (a row per attempted step) are not, and the summary
+    says so; fixed-step logs of different steps still cannot be compared."""
+    bar = Path(__file__).parents[2] / "input" / "spinning_bar.txt"
+    folders = []
+    for tau in ("1e-2", "1e-3"):
+        folders.append(tmp_path / tau)
+        assert main(["run", str(bar), "-o", str(folders[-1]), "-q", "--set",
+                     "integrator.type='BDF2'", "--set", "time.duration=0.1", "--set",
+                     f"time.tolerance={tau}"]) == 0
+    assert main(["compare", *map(str, folders), "--atol", "1e-2"]) == 0
+    out = capsys.readouterr().out
+    assert "compared 5 frames" in out and "same within tolerance" in out
+    assert "steps.csv not compared: A logs" in out and "(adaptive time steps)" in out
+    assert main(["compare", *map(str, folders)]) == 1  # apart by more than 1e-6 of l
+    assert "DIFFERENT: first at frame" in capsys.readouterr().out
 
 
 def test_mismatched_folders_cannot_be_compared(runs, tmp_path, capsys):
