@@ -35,6 +35,25 @@ def test_judge_accepts_within_the_allowed_error_and_limits_the_change():
     assert control.stalled(h) == pytest.approx(0.25 * h)
 
 
+def test_a_step_shorter_than_the_floor_may_make_the_floors_error():
+    """Below h_floor the allowed error stops shrinking with h: across an impact the
+    estimate is about h·Δv, and a step shorter than h_floor is accepted once within
+    τ·h_floor/T, where error per unit step would reject every h."""
+    control = StepSizeControl(tolerance=1e-3, duration=2.0, h_max=0.05)
+    h_floor = control.h_floor_ratio * control.h_max
+    assert control.h_min < h_floor < control.h_max
+    assert control.allowed(h_floor / 10) == control.allowed(h_floor) == 1e-3 * h_floor / 2.0
+    assert control.allowed(2 * h_floor) == pytest.approx(1e-3 * 2 * h_floor / 2.0)
+    # err = 3·τh/T at every h (a velocity reversed within the step): h shrinks until the
+    # floor takes it, above h_min
+    h, accepted = control.h_max, False
+    while not accepted:
+        assert h >= control.h_min
+        accepted, h_next = control.judge(h, 3 * 1e-3 * h / 2.0, order=2)
+        h = h if accepted else h_next
+    assert h_floor / 15 < h <= h_floor / 3  # one shrink of at most 0.2 took it below
+
+
 def test_steps_land_on_output_times():
     assert landing_step(0.0, 0.03, 0.1) == pytest.approx(0.025)
     assert landing_step(0.09, 0.025, 0.1) == pytest.approx(0.01)
