@@ -335,27 +335,32 @@ def compare_runs(a, b, rtol: float = 1e-6, atol: float = 0.0) -> CompareResult:
             res.first_frame_step = step
 
     if ref.log is not None:
-        la, lb = _read_log(a, "A"), ref.log
-        sa, sb = list(la["step"]), list(lb["step"])
-        if sa != sb and (_adaptive(sa) or _adaptive(sb)):
-            # a row per attempted step: runs with different steps compare by frames only
-            res.log_note = (f"steps.csv not compared: A logs {len(sa)} attempted steps, "
-                            f"B {len(sb)} (adaptive time steps)")
-            return res
-        if sa != sb:
-            raise CompareError(f"steps.csv: A logs {len(sa)} steps, B {len(sb)} "
-                               "(different steps)")
-        res.log_steps = sa
-        for c in COUNT_COLUMNS:
-            res.counts_a[c], res.counts_b[c] = la[c], lb[c]
-        for k, s in enumerate(sa):
-            diff = [c for c in COUNT_COLUMNS if la[c][k] != lb[c][k]]
-            if diff:
-                c = diff[0]
-                res.first_count_diff = (f"step {s}: {c} {la[c][k]} in A, {lb[c][k]} in B")
-                res.first_count_step = int(s)
-                break
+        _compare_logs(res, _read_log(a, "A"), ref.log)
     return res
+
+
+def _compare_logs(res: CompareResult, la: dict, lb: dict) -> None:
+    """The Newton iterations and contact counts of A's and B's steps.csv, step by step
+    (the first difference into ``res``)."""
+    sa, sb = list(la["step"]), list(lb["step"])
+    if sa != sb and (_adaptive(sa) or _adaptive(sb)):
+        # a row per attempted step: runs with different steps compare by frames only
+        res.log_note = (f"steps.csv not compared: A logs {len(sa)} attempted steps, "
+                        f"B {len(sb)} (adaptive time steps)")
+        return
+    if sa != sb:
+        raise CompareError(f"steps.csv: A logs {len(sa)} steps, B {len(sb)} "
+                           "(different steps)")
+    res.log_steps = sa
+    for c in COUNT_COLUMNS:
+        res.counts_a[c], res.counts_b[c] = la[c], lb[c]
+    for k, step in enumerate(sa):
+        diff = [c for c in COUNT_COLUMNS if la[c][k] != lb[c][k]]
+        if diff:
+            c = diff[0]
+            res.first_count_diff = f"step {step}: {c} {la[c][k]} in A, {lb[c][k]} in B"
+            res.first_count_step = int(step)
+            return
 
 
 # Golden references: a short run kept in a few KB. Positions are written with repr (17
