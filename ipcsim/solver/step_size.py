@@ -9,11 +9,11 @@ the scene size l) is within the error allowed per unit of simulated time:
 
 Summed over a run the allowed local errors make τ, so the global error stays near τ and
 shrinks in proportion to it (error per unit step); err ≤ τ per step would let the global
-error grow with the number of steps. Steps shorter than h_floor (10⁻⁶ dt) may make the
+error grow with the number of steps. Steps shorter than h_floor (10⁻⁴ dt) may make the
 error of a step of h_floor, allowed(h) = τ·max(h, h_floor)/T: an impact deep in the
 barrier reverses a velocity within nanoseconds, the estimate of a step across it is
 about h·Δv, and err / (τh/T) does not fall as h shrinks, so error per unit step could
-never be met there; such a step adds at most τ·h_floor/T (10⁻⁶·τ·dt/T) to the run's
+never be met there; such a step adds at most τ·h_floor/T (10⁻⁴·τ·dt/T) to the run's
 error. With err ≈ C h^(p+1) (p = 2 for BDF2, 1 for the
 BE step that starts it), err / allowed ∝ h^p, and the next step is
 
@@ -62,9 +62,13 @@ class StepSizeControl(Struct, frozen=True):
     def h_min(self) -> float:
         return self.h_min_ratio * self.h_max
 
+    @property
+    def h_floor(self) -> float:
+        return self.h_floor_ratio * self.h_max
+
     def allowed(self, h: float) -> float:
         """The local error (relative to l) a step of length h may make."""
-        return self.tolerance * max(h, self.h_floor_ratio * self.h_max) / self.duration
+        return self.tolerance * max(h, self.h_floor) / self.duration
 
     def solve_tolerance(self, h: float) -> float:
         """Newton's ‖p‖∞ tolerance (relative to l) in a step of length h at most."""

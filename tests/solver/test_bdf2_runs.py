@@ -207,11 +207,10 @@ def test_a_fast_impact_goes_through_with_adaptive_steps():
     while sim.state.step < spec.n_steps:
         rows.extend(sim.step().rows)
     control = sim.control
-    h_floor = control.h_floor_ratio * control.h_max
+    h_floor = control.h_floor
     floored = [r for r in rows if r["accepted"] and r["dt"] < h_floor
                and r["error_estimate"] > control.tolerance * r["dt"] / control.duration]
     assert floored
     assert all(r["error_estimate"] <= control.allowed(r["dt"]) for r in rows if r["accepted"])
     assert min(r["min_distance"] for r in rows if r["accepted"]) > 0.0
     assert np.mean(sim.state.v[:, 1]) > -10.0  # the ground took most of its momentum
-

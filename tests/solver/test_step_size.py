@@ -40,7 +40,7 @@ def test_a_step_shorter_than_the_floor_may_make_the_floors_error():
     estimate is about h·Δv, and a step shorter than h_floor is accepted once within
     τ·h_floor/T, where error per unit step would reject every h."""
     control = StepSizeControl(tolerance=1e-3, duration=2.0, h_max=0.05)
-    h_floor = control.h_floor_ratio * control.h_max
+    h_floor = control.h_floor
     assert control.h_min < h_floor < control.h_max
     assert control.allowed(h_floor / 10) == control.allowed(h_floor) == 1e-3 * h_floor / 2.0
     assert control.allowed(2 * h_floor) == pytest.approx(1e-3 * 2 * h_floor / 2.0)
