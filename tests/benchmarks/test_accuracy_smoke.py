@@ -114,6 +114,11 @@ def test_tolerances_add_adaptive_runs_judged_against_three_tau(tmp_path):
     runs = acc.plan(acc.SMOKE, "", [acc.Variant("ipcsim", "BE"), tau], tmp_path, tmp_path)
     adaptive = [m for m in runs if m.variant == tau]
     assert [m.h for m in adaptive] == [acc.SMOKE.default_h]  # once, from the scene's h
+    # the smoke scene has contact: the adaptive runs get references of their own model
+    refs = [(m.variant.integrator, m.variant.tolerance, m.h) for m in runs
+            if m.role == "reference"]
+    assert refs == [("BDF2", None, h) for h in acc.SMOKE.references()] + [
+        ("BDF2", pytest.approx(1e-4), 0.025), ("BDF2", pytest.approx(1e-5), 0.025)]
 
     def judged(error, resolved):
         m = acc.Measured("s", tau, 0.025, "ladder", tmp_path, tmp_path,
@@ -132,3 +137,34 @@ def test_references_by_newmark_only_without_contact():
     assert by_name["two_cubes"].reference_integrator("ipcsim") == "BDF2"
     assert all(sc.reference_integrator("original") == "NM" for sc in acc.SCENES)
     assert [sc.name for sc in acc.SCENES if sc.contact_free] == ["spinning_bar"]
+
+
+def test_each_model_is_scored_against_its_own_references(tmp_path, monkeypatch):
+    """Fixed steps against the fixed-step references, adaptive runs of a contact scene
+    against the adaptive ones; without contact one model, the fixed-step references."""
+    be, tau = acc.Variant("ipcsim", "BE"), acc.Variant("ipcsim", "BDF2", 1e-2)
+    ok = [vo.Run(rc=0, wall_s=1.0, peak_mb=None)]
+
+    def run(variant, role, offset):
+        m = acc.Measured("s", variant, 0.025, role, tmp_path / f"{offset}", tmp_path,
+                         runs=list(ok))
+        return m
+    where = {}  # every vertex of a run sits at its offset along x
+    monkeypatch.setattr(acc, "trajectory", lambda m, times: np.full((len(times), 2, 3),
+                                                                    where[m.folder.name]))
+    fixed_refs = [run(acc.Variant("ipcsim", "BDF2"), "reference", o) for o in (0.01, 0.0)]
+    adaptive_refs = [run(acc.Variant("ipcsim", "BDF2", t), "reference", o)
+                     for t, o in ((1e-3, 5.001), (1e-4, 5.0))]
+    ladder = [run(be, "ladder", 1.0), run(tau, "ladder", 5.2)]
+    for m in fixed_refs + adaptive_refs + ladder:
+        where[m.folder.name] = float(m.folder.name)
+    checks = acc.score(acc.SMOKE, fixed_refs + adaptive_refs + ladder, math.sqrt(3.0))
+    assert ladder[0].error == pytest.approx(1.0) and ladder[1].error == pytest.approx(0.2)
+    assert ladder[1].reference_difference == pytest.approx(0.001)
+    assert [c.references for c in checks] == [
+        "ipcsim's references h = 0.025 and 0.025 s",
+        "ipcsim's adaptive references τ = 0.001 and 0.0001"]
+    spinning = next(sc for sc in acc.SCENES if sc.contact_free)
+    assert acc.model_of(spinning, tau) == acc.model_of(spinning, be) == "ipcsim"
+    assert [v for v, _ in acc.references(spinning, [be, tau])] == [
+        acc.Variant("ipcsim", "NM")] * 2
