@@ -413,10 +413,12 @@ class Check:
 
 def _references_named(refs: list[Measured]) -> str:
     program, tau = refs[0].variant.program, refs[0].variant.tolerance
-    if tau is None:
-        return f"{program}'s references h = {refs[0].h:g} and {refs[1].h:g} s"
-    return (f"{program}'s adaptive references τ = {tau:g} and "
-            f"{refs[1].variant.tolerance:g}")
+    named = (f"{program}'s references h = {refs[0].h:g} and {refs[1].h:g} s" if tau is None
+             else f"{program}'s adaptive references τ = {tau:g} and "
+             f"{refs[1].variant.tolerance:g}")
+    failed = [f"{m.variant.name} h = {m.h:g}: exit {m.last.rc if m.last else '?'}"
+              for m in refs if not m.ok]
+    return named + (f" (failed: {'; '.join(failed)})" if failed else "")
 
 
 def score(scene: Scene, runs: list[Measured], size: float) -> list[Check]:
@@ -571,7 +573,8 @@ def tolerance_lines(runs: list[Measured]) -> list[str]:
         if m.role != "ladder" or tau is None:
             continue
         if m.error is None:
-            out.append(f"{m.variant.name}: no error (exit {m.last.rc if m.last else '?'})")
+            why = f"exit {m.last.rc}" if m.last and not m.ok else "no finished reference"
+            out.append(f"{m.variant.name}: no error ({why})")
             continue
         verdict = ("unresolved: the references differ by more than a tenth of it"
                    if not m.resolved else "met" if m.error <= TOLERANCE_FACTOR * tau

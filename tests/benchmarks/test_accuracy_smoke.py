@@ -164,6 +164,9 @@ def test_each_model_is_scored_against_its_own_references(tmp_path, monkeypatch):
     assert [c.references for c in checks] == [
         "ipcsim's references h = 0.025 and 0.025 s",
         "ipcsim's adaptive references τ = 0.001 and 0.0001"]
+    adaptive_refs[1].runs = [vo.Run(rc=3, wall_s=1.0, peak_mb=None)]  # a reference failed
+    assert acc._references_named(adaptive_refs).endswith(
+        "(failed: ipcsim BDF2 τ=0.0001 h = 0.025: exit 3)")
     spinning = next(sc for sc in acc.SCENES if sc.contact_free)
     assert acc.model_of(spinning, tau) == acc.model_of(spinning, be) == "ipcsim"
     assert [v for v, _ in acc.references(spinning, [be, tau])] == [
