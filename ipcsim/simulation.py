@@ -275,10 +275,12 @@ class Simulation:
                 reports.append(self._report(result, lags, wall0, integrator, before, after,
                                             accepted, number))
             if h_next < control.h_min:
-                why = stalled or f"the error estimate stayed above the tolerance ({error:.3g})"
+                why = stalled or (f"the error estimate {error:.3g} stayed above the "
+                                  f"{control.allowed(h):.3g} allowed, of l")
+                fix = "raise the time tolerance" + (" or lower dt" if stalled else "")
                 failure = stalled if isinstance(stalled, NonFiniteError) else SolverError(
                     f"at t = {before.time:.9g} s the adaptive step fell below "
-                    f"{control.h_min:.3g} s ({why}); raise the time tolerance or lower dt")
+                    f"{control.h_min:.3g} s ({why}); {fix}")
                 tried = _one_report(reports)
                 failure.attempts, failure.newton = tried.rows, tried.newton
                 raise failure
