@@ -56,7 +56,7 @@ bounce and take long (docs/numerics.md, "BDF2 and adaptive time steps"). On a sc
 with contact they solve another model than the fixed steps do: their barrier has the
 stiffness of the scene's dt at every step (κ = κ_max), a fixed step's has κ/h² (a
 stiffer barrier at a finer h), so their error is taken against references of their
-own model, adaptive BDF2 at τ_min / 10 and τ_min / 100 (:data:`ADAPTIVE_REFERENCE`,
+own model, adaptive BDF2 at τ_min / 30 and τ_min / 300 (:data:`ADAPTIVE_REFERENCE`,
 τ_min the smallest τ asked), checked like the others (:func:`model_of`). Without
 contact the two models are one, and every run has the fixed-step references.
 """
@@ -88,7 +88,7 @@ DEFAULT_OUT = REPO_ROOT / "docs" / "benchmarks"
 DEFAULT_WORK = REPO_ROOT / "output" / "accuracy"
 TARGETS = (1e-2, 1e-3, 1e-4)  # errors of the time-to-accuracy table, / l
 TOLERANCES = (1e-2, 1e-3, 1e-4)  # τ of adaptive variants, / l
-ADAPTIVE_REFERENCE = (10.0, 100.0)  # adaptive references at the smallest τ / these
+ADAPTIVE_REFERENCE = (30.0, 300.0)  # adaptive references at the smallest τ / these
 RESOLVED = 10.0  # an error is resolved when ≥ this × its references' difference
 FRAME_DT = 0.01  # s: both programs' frame spacing at playBackSpeed 1
 PLAYBACK_FRAME_DT = 0.03  # s: frame spacing per unit playBackSpeed below 1 (both programs)
@@ -300,8 +300,8 @@ def model_of(scene: Scene, v: Variant) -> str:
 
 def references(scene: Scene, variants) -> list[tuple[Variant, float]]:
     """(variant, h) of each model's two references: fixed steps 2^ref_gap and
-    2^(ref_gap+1) times finer than the ladder's finest h; adaptive BDF2 at τ_min / 10
-    and τ_min / 100 (the smallest τ asked) from the scene's own h."""
+    2^(ref_gap+1) times finer than the ladder's finest h; adaptive BDF2 at τ_min / 30
+    and τ_min / 300 (the smallest τ asked) from the scene's own h."""
     out = []
     for program in scene.programs:
         if any(v.program == program for v in variants):

@@ -118,7 +118,7 @@ def test_tolerances_add_adaptive_runs_judged_against_three_tau(tmp_path):
     refs = [(m.variant.integrator, m.variant.tolerance, m.h) for m in runs
             if m.role == "reference"]
     assert refs == [("BDF2", None, h) for h in acc.SMOKE.references()] + [
-        ("BDF2", pytest.approx(1e-4), 0.025), ("BDF2", pytest.approx(1e-5), 0.025)]
+        ("BDF2", pytest.approx(1e-3 / 30), 0.025), ("BDF2", pytest.approx(1e-3 / 300), 0.025)]
 
     def judged(error, resolved):
         m = acc.Measured("s", tau, 0.025, "ladder", tmp_path, tmp_path,
