@@ -193,7 +193,8 @@ _TB1 = "paperExamples/tb1_diffDt/rodsTwist_E1e4_dt0.025.txt"
 SCENES = (
     Scene("spinning_bar", "a soft bar released spinning, no gravity, no contact "
           "(input/spinning_bar.txt)", 1.0, 0.05, 7, 0.025,
-          _repo_script("input/spinning_bar.txt"), energy=True, contact_free=True),
+          _repo_script("input/spinning_bar.txt"), energy=True, contact_free=True,
+          ref_gap=2),  # at 2^3 and 2^4 ipcsim's finer reference drifts by round-off
     Scene("two_cubes", "two soft cubes fall onto frictionless ground and each other "
           "(speed_accuracy two_cubes, 2 cells per edge)", 1.0, 0.05, 7, 0.025,
           _generated("two_cubes", 2), energy=True),
