@@ -683,6 +683,11 @@ def error_chart(scene: Scene, runs: list[Measured], info: dict, path: Path) -> N
         ax.plot([p[0] for p in pts], [p[1] for p in pts], label=v.name, **_style(v))
         for w, e, h in pts:
             ax.annotate(f"{h:g}", (w, e), fontsize=6, xytext=(3, 2), textcoords="offset points")
+    unresolved = [(m.wall_s, m.error) for m in runs if m.role == "ladder" and m.error
+                  and m.wall_s and m.resolved is False]
+    if unresolved:  # crossed out: below 10× their references' difference
+        ax.plot(*zip(*unresolved), "x", color="grey", markersize=9, linestyle="none",
+                label="unresolved (below 10× the references' difference)")
     for target in TARGETS:
         ax.axhline(target, color="grey", linewidth=0.6, linestyle=":")
     ax.set_xscale("log")
