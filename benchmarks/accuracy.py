@@ -41,7 +41,7 @@ scene's own h for the scenes marked ``energy``: ipcsim's from steps.csv and its 
 
 Prints the tables with the command, machine, date and load; a full run writes
 ``accuracy.csv``, ``accuracy_table.md``, ``accuracy_<scene>.png`` (error against wall
-time) and ``accuracy_energy_<scene>.png`` into ``--out`` (default docs/benchmarks/).
+time, unresolved runs crossed out) and ``accuracy_energy_<scene>.png`` into ``--out`` (default docs/benchmarks/).
 ``--smoke`` runs two coarse steps and two references of a small scene into a temporary
 folder (well under a minute). A partial run (``--smoke``, ``--only``, ``--duration``,
 ``--levels``) writes files only where ``--out`` says. Without the original
