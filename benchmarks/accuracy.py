@@ -35,7 +35,7 @@ own command without its wrapper, ``ipcsim run`` as a user runs it), the median o
 time-to-accuracy table gives, per scene and target error, each program's fastest run
 within it (its error plus its references' difference at most the target) and the
 ratio of the two wall times. Energy over time (kinetic + elastic + gravity's) at the
-scene's own h for the scenes marked ``energy``: ipcsim's from steps.csv and its frames
+scene's own h, and of the adaptive runs, for the scenes marked ``energy``: ipcsim's from steps.csv and its frames
 (``benchmarks.newmark_impacts.ipcsim_energy``), the original's from its ``sysE.txt``
 (its own per-body sums, as newmark_impacts reads them).
 
@@ -706,22 +706,26 @@ def error_chart(scene: Scene, runs: list[Measured], info: dict, path: Path) -> N
 
 def energy_chart(scene: Scene, runs: list[Measured], stage: Path, path: Path) -> bool:
     """Total energy over time, relative to the first value, of every fixed-step variant
-    at the scene's own h; False when there is nothing to draw."""
+    at the scene's own h and of every adaptive run (dotted, one colour per τ); False
+    when there is nothing to draw."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(7.5, 4.5))
     drawn = False
+    taus = sorted({m.variant.tolerance for m in runs if m.variant.tolerance is not None},
+                  reverse=True)
     for m in runs:
-        if m.role != "ladder" or m.variant.tolerance is not None \
-                or not math.isclose(m.h, scene.default_h):
+        if m.role != "ladder" or not math.isclose(m.h, scene.default_h):
             continue
         series = energy_series(m, stage)
         if series is None or not len(series[0]) or series[1][0] == 0:
             continue
-        ax.plot(series[0], series[1] / series[1][0], label=m.variant.name,
-                **(_style(m.variant) | {"marker": None}))
+        style = _style(m.variant) | {"marker": None}
+        if m.variant.tolerance is not None:
+            style |= {"linestyle": ":", "color": f"C{3 + taus.index(m.variant.tolerance)}"}
+        ax.plot(series[0], series[1] / series[1][0], label=m.variant.name, **style)
         drawn = True
     ax.set_xlabel("time (s)")
     ax.set_ylabel("total energy / its value after the first step")

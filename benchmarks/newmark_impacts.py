@@ -58,7 +58,8 @@ def _mesh(stage: Path) -> str:
 def ipcsim_energy(out: Path, script: Path, cwd: Path) -> dict[int, float]:
     """Total energy at each framed step of an ipcsim run: kinetic and elastic from
     steps.csv, gravity's (−Σ m g·x, zero without gravity) from the frame's positions and
-    the model's masses."""
+    the model's masses. With adaptive steps a step's rows are its attempts and the
+    accepted ones, the last of which lands on the frame's time."""
     import meshio
 
     import ipcsim
@@ -67,7 +68,7 @@ def ipcsim_energy(out: Path, script: Path, cwd: Path) -> dict[int, float]:
         model = ipcsim.build_model(ipcsim.load_scene(script))
     mass, gravity = np.asarray(model.mass), np.asarray(model.gravity)
     with open(out / "steps.csv", newline="") as f:
-        rows = {int(r["step"]): r for r in csv.DictReader(f)}
+        rows = {int(r["step"]): r for r in csv.DictReader(f) if r.get("accepted") != "0"}
     energy = {}
     for frame in sorted((out / "frames").glob("frame_*.vtu")):
         k = int(frame.stem.split("_")[1])

@@ -171,3 +171,21 @@ def test_each_model_is_scored_against_its_own_references(tmp_path, monkeypatch):
     assert acc.model_of(spinning, tau) == acc.model_of(spinning, be) == "ipcsim"
     assert [v for v, _ in acc.references(spinning, [be, tau])] == [
         acc.Variant("ipcsim", "NM")] * 2
+
+
+def test_energy_of_an_adaptive_run_is_read_at_its_frames(tmp_path):
+    """An adaptive run logs every attempt, rejected ones too; its energy series is the
+    accepted steps' at the frames' times. In free fall (the smoke scene before its
+    landing) adaptive BDF2 keeps its energy within 1e-5."""
+    scene = acc.Scene("falling", "the smoke scene's cubes in free fall", 0.1, 0.05, 1,
+                      0.025, acc.SMOKE.make)
+    (tmp_path / "scripts").mkdir()
+    tau = acc.Variant("ipcsim", "BDF2", 1e-3)
+    (m,) = [r for r in acc.plan(scene, scene.make(tmp_path), [tau], tmp_path, tmp_path)
+            if r.role == "ladder"]
+    acc.execute(m, tmp_path, vo.Settings(work=tmp_path), keep=False)
+    assert m.ok, m.last
+    assert "0" in {r["accepted"] for r in _rows(m.folder / "steps.csv")}  # a retried step
+    times, energy = acc.energy_series(m, tmp_path)
+    assert times == pytest.approx(0.025 * np.arange(1, 5))
+    assert energy == pytest.approx(energy[0], rel=1e-5)
