@@ -215,7 +215,7 @@ def build_model_3d(scene: SceneSpec) -> Model:
     """The stages of §5.1, each a function of what the ones before produced."""
     _check_global_settings(scene)
     refuse_what_is_not_simulated(scene)
-    warnings: list[str] = []
+    warnings = time_warnings(scene)
     parts = [_load_shape(scene, i, s, warnings) for i, s in enumerate(scene.shapes)]
     if not any(p.kind == "tet" for p in parts):
         raise _scene_error(scene, None, "the scene needs at least one tetrahedral shape "
@@ -283,6 +283,20 @@ def refuse_what_is_not_simulated(scene: SceneSpec) -> None:
                            "adaptive time steps (a time tolerance) cannot follow the mesh "
                            f"sequence of shape {sequences[0] + 1}, whose frames are one per "
                            "step of dt; leave the tolerance out")
+
+
+def time_warnings(scene: SceneSpec) -> list[str]:
+    """A time tolerance with backward Euler only because the scene names no integrator:
+    BE is first order, so its adaptive steps shrink in proportion to τ (BDF2's as √τ:
+    a hundredfold more steps at τ = 1e-4 on smooth motion, docs/user-guide.md)."""
+    named = (scene.line_of("integrator.type") is not None
+             or "integrator.type" in scene.overrides)
+    if scene.time_tolerance is None or scene.integrator != "BE" or named:
+        return []
+    return ["adaptive time steps with backward Euler, the default integrator: first "
+            "order, its steps shrink in proportion to the tolerance (BDF2's with its square "
+            "root); name an integrator to choose (timeIntegration BDF2, or [integrator] "
+            "type = \"BDF2\"; BE keeps it)"]
 
 
 def _check_global_settings(scene: SceneSpec) -> None:

@@ -54,9 +54,11 @@ from .builder import (
     lame_parameters,
     place,
     refuse_what_is_not_simulated,
+    time_settings,
+    time_warnings,
 )
 from .generate import rectangle_mesh, rectangle_springs
-from .model import Model, TimeSettings
+from .model import Model
 from .surface import boundary_edges, index_set, triangle_signed_areas, unique_edges
 
 
@@ -211,7 +213,7 @@ def build_model_2d(scene: SceneSpec) -> Model:
             raise _scene_error(scene, scene.line_of(f"integrator.{key}"),
                                f"`{key}`: Rayleigh damping is not simulated in 2D "
                                "scenes; leave it out")
-    warnings: list[str] = []
+    warnings = time_warnings(scene)
     parts = [_load_shape_2d(scene, i, s, warnings) for i, s in enumerate(scene.shapes)]
     offsets = np.concatenate([[0], np.cumsum([len(p.points) for p in parts])]).astype(np.int64)
     rest, initial = _place_scene(scene, np.concatenate([p.points for p in parts]))
@@ -222,8 +224,7 @@ def build_model_2d(scene: SceneSpec) -> Model:
     velocities = _initial_velocities(scene, parts, offsets, motion, warnings)
     empty = np.zeros(0)
     model = Model(
-        time=TimeSettings(scene.dt, scene.n_steps, scene.integrator, scene.newmark_beta,
-                          scene.newmark_gamma),
+        time=time_settings(scene, l),
         solver=_solver_settings(scene, l), energy=scene.energy,
         rest_positions=rest, initial_positions=motion.initial, initial_velocities=velocities,
         mass=bodies.mass, vertex_shape=np.repeat(np.arange(len(parts)), np.diff(offsets)),

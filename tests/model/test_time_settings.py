@@ -1,5 +1,6 @@
-"""The model carries the integrator and the time tolerance; the builder refuses adaptive
-steps where they cannot work (Newmark has no error estimate)."""
+"""The model carries the integrator and the time tolerance, in 3D and 2D; the builder
+refuses adaptive steps where they cannot work (Newmark has no error estimate) and warns
+where they would be slow only because the scene names no integrator (BE by default)."""
 
 from __future__ import annotations
 
@@ -57,3 +58,29 @@ def test_run_says_so_on_one_line_and_exits_2(mesh_dir, tmp_path):
     assert done.stderr.strip() == (f"{path}:5: adaptive time steps (a time tolerance) need "
                                    "the BE or BDF2 integrator, which estimate their error; "
                                    "Newmark does not")
+
+
+BE_DEFAULT = "adaptive time steps with backward Euler, the default integrator"
+
+
+@pytest.mark.parametrize("extra, overrides, warned", [
+    ("timeTolerance 1e-3\n", {}, True),  # BE only by default
+    ("timeTolerance 1e-3\ntimeIntegration BE\n", {}, False),  # BE named
+    ("timeTolerance 1e-3\n", {"integrator.type": "BE"}, False),  # named by --set
+    ("timeTolerance 1e-3\ntimeIntegration BDF2\n", {}, False),
+    ("", {}, False),  # fixed steps
+])
+def test_a_tolerance_with_be_by_default_is_warned(mesh_dir, extra, overrides, warned):
+    model = build_model(load_scene(_scene(mesh_dir, extra), overrides=overrides))
+    assert any(w.startswith(BE_DEFAULT) for w in model.warnings) == warned
+
+
+def test_a_2d_scene_carries_its_tolerance_and_the_same_warning(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text('[scene]\ndimension = 2\n[time]\ndt = 0.01\nduration = 0.1\n'
+                    'tolerance = 1e-3\n[[shapes]]\nkind = "rectangle"\nsize = [1.0, 1.0]\n'
+                    'resolution = [2, 2]\n')
+    model = build_model(load_scene(path))
+    assert model.dimension == 2 and model.time.duration == pytest.approx(0.1)
+    assert model.time.tolerance == pytest.approx(1e-3 * model.bbox_diagonal)
+    assert any(w.startswith(BE_DEFAULT) for w in model.warnings)
