@@ -278,8 +278,9 @@ def refuse_what_is_not_simulated(scene: SceneSpec) -> None:
                            "adaptive time steps (a time tolerance) need the BE or BDF2 "
                            "integrator, which estimate their error; Newmark does not")
     sequences = [i for i, s in enumerate(scene.shapes) if s.mesh_sequence is not None]
-    if sequences:
-        raise _scene_error(scene, scene.line_of("time.tolerance"),
+    if sequences:  # at the tolerance's line, else (set by --set) at the sequence's shape
+        line = scene.line_of("time.tolerance") or scene.shapes[sequences[0]].line
+        raise _scene_error(scene, line,
                            "adaptive time steps (a time tolerance) cannot follow the mesh "
                            f"sequence of shape {sequences[0] + 1}, whose frames are one per "
                            "step of dt; leave the tolerance out")

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from ipcsim.errors import MeshError
+from ipcsim.errors import MeshError, SceneError
 from ipcsim.model.build import build_model
 from ipcsim.model.kinematics import (kinematic_targets, nbc_accelerations,
                                      rotation_axis_angle, rotation_xyz)
@@ -129,6 +129,11 @@ def test_mesh_sequence(tmp_path, mesh_dir):
     assert info.value.line == 5 and "3.seg" in str(info.value)
     with pytest.raises(MeshError):
         kinematic_targets(model, x, 4 * 0.025, 0.025)  # frame 4 does not exist
+    # adaptive steps cannot follow it (a frame per step of dt): refused at the shape's
+    # line where the tolerance has none (set by --set)
+    with pytest.raises(SceneError, match="cannot follow the mesh sequence of shape 2") as e:
+        build_model(SceneSpec(shapes=shapes, time_tolerance=1e-3))
+    assert e.value.line == 5
 
 
 def test_nbc_accelerations(mesh_dir):
