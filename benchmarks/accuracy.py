@@ -35,13 +35,14 @@ own command without its wrapper, ``ipcsim run`` as a user runs it), the median o
 time-to-accuracy table gives, per scene and target error, each program's fastest run
 within it (its error plus its references' difference at most the target) and the
 ratio of the two wall times. Energy over time (kinetic + elastic + gravity's) at the
-scene's own h, and of the adaptive runs, for the scenes marked ``energy``: ipcsim's from steps.csv and its frames
-(``benchmarks.newmark_impacts.ipcsim_energy``), the original's from its ``sysE.txt``
-(its own per-body sums, as newmark_impacts reads them).
+scene's own h, and of the adaptive runs, for the scenes marked ``energy``: ipcsim's from
+steps.csv and its frames (``benchmarks.newmark_impacts.ipcsim_energy``), the original's
+from its ``sysE.txt`` (its own per-body sums, as newmark_impacts reads them).
 
 Prints the tables with the command, machine, date and load; a full run writes
 ``accuracy.csv``, ``accuracy_table.md``, ``accuracy_<scene>.png`` (error against wall
-time, unresolved runs crossed out) and ``accuracy_energy_<scene>.png`` into ``--out`` (default docs/benchmarks/).
+time, unresolved runs crossed out) and ``accuracy_energy_<scene>.png`` into ``--out``
+(default docs/benchmarks/).
 ``--smoke`` runs two coarse steps and two references of a small scene into a temporary
 folder (well under a minute). A partial run (``--smoke``, ``--only``, ``--duration``,
 ``--levels``) writes files only where ``--out`` says. Without the original

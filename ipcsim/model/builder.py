@@ -290,8 +290,7 @@ def time_warnings(scene: SceneSpec) -> list[str]:
     """A time tolerance with backward Euler only because the scene names no integrator:
     BE is first order, so its adaptive steps shrink in proportion to τ, BDF2's as √τ
     (the spinning bar at τ = 1e-4: BE 97 s, BDF2 2.4 s; docs/user-guide.md)."""
-    named = (scene.line_of("integrator.type") is not None
-             or "integrator.type" in scene.overrides)
+    named = "integrator.type" in scene.key_lines or "integrator.type" in scene.overrides
     if scene.time_tolerance is None or scene.integrator != "BE" or named:
         return []
     return ["adaptive time steps with backward Euler, the default integrator: first "

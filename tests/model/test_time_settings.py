@@ -84,3 +84,6 @@ def test_a_2d_scene_carries_its_tolerance_and_the_same_warning(tmp_path):
     assert model.dimension == 2 and model.time.duration == pytest.approx(0.1)
     assert model.time.tolerance == pytest.approx(1e-3 * model.bbox_diagonal)
     assert any(w.startswith(BE_DEFAULT) for w in model.warnings)
+    # an [integrator] table that names no type does not name the integrator
+    path.write_text(path.read_text() + "[integrator]\ndamping_ratio = 0.0\n")
+    assert any(w.startswith(BE_DEFAULT) for w in build_model(load_scene(path)).warnings)
